@@ -1,0 +1,16 @@
+pub mod bench;
+pub mod colmap;
+pub mod limap;
+pub mod pose;
+
+/// Logs go to stderr through `tracing`; `RUST_LOG` overrides the level.
+pub fn init_logging(quiet: bool) {
+    let default = if quiet { "warn" } else { "info" };
+    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(default));
+    let _ = tracing_subscriber::fmt()
+        .with_env_filter(filter)
+        .with_writer(std::io::stderr)
+        .with_target(false)
+        .try_init();
+}

@@ -1,0 +1,403 @@
+//! Cameras of every COLMAP model (ids 0-17), following COLMAP's sensor/models.h:
+//! parameter layout, projection (camera frame -> pixel, with distortion) and lifting
+//! (pixel -> ray, iterative undistortion with a convergence check).
+
+mod models;
+
+use crate::error::GeometryError;
+use nalgebra::{Matrix3, Vector2, Vector3};
+use serde::{Deserialize, Serialize};
+
+/// COLMAP camera model, with COLMAP's numeric id as discriminant.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+#[repr(i32)]
+pub enum CameraModel {
+    SimplePinhole = 0,
+    Pinhole = 1,
+    SimpleRadial = 2,
+    Radial = 3,
+    OpenCv = 4,
+    OpenCvFisheye = 5,
+    FullOpenCv = 6,
+    Fov = 7,
+    SimpleRadialFisheye = 8,
+    RadialFisheye = 9,
+    ThinPrismFisheye = 10,
+    RadTanThinPrismFisheye = 11,
+    SimpleDivision = 12,
+    Division = 13,
+    SimpleFisheye = 14,
+    Fisheye = 15,
+    Eucm = 16,
+    Equirectangular = 17,
+}
+
+/// Static description of a model: COLMAP name and parameter names, in file order.
+struct ModelInfo {
+    name: &'static str,
+    params: &'static [&'static str],
+    /// Indices of the focal length parameters (1 or 2; empty for spherical models).
+    focal: &'static [usize],
+    /// Indices of the principal point (cx, cy; empty for spherical models).
+    pp: &'static [usize],
+}
+
+const F1: &[usize] = &[0];
+const F2: &[usize] = &[0, 1];
+const PP1: &[usize] = &[1, 2];
+const PP2: &[usize] = &[2, 3];
+
+const INFO: [ModelInfo; 18] = [
+    ModelInfo {
+        name: "SIMPLE_PINHOLE",
+        params: &["f", "cx", "cy"],
+        focal: F1,
+        pp: PP1,
+    },
+    ModelInfo {
+        name: "PINHOLE",
+        params: &["fx", "fy", "cx", "cy"],
+        focal: F2,
+        pp: PP2,
+    },
+    ModelInfo {
+        name: "SIMPLE_RADIAL",
+        params: &["f", "cx", "cy", "k"],
+        focal: F1,
+        pp: PP1,
+    },
+    ModelInfo {
+        name: "RADIAL",
+        params: &["f", "cx", "cy", "k1", "k2"],
+        focal: F1,
+        pp: PP1,
+    },
+    ModelInfo {
+        name: "OPENCV",
+        params: &["fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2"],
+        focal: F2,
+        pp: PP2,
+    },
+    ModelInfo {
+        name: "OPENCV_FISHEYE",
+        params: &["fx", "fy", "cx", "cy", "k1", "k2", "k3", "k4"],
+        focal: F2,
+        pp: PP2,
+    },
+    ModelInfo {
+        name: "FULL_OPENCV",
+        params: &[
+            "fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2", "k3", "k4", "k5", "k6",
+        ],
+        focal: F2,
+        pp: PP2,
+    },
+    ModelInfo {
+        name: "FOV",
+        params: &["fx", "fy", "cx", "cy", "omega"],
+        focal: F2,
+        pp: PP2,
+    },
+    ModelInfo {
+        name: "SIMPLE_RADIAL_FISHEYE",
+        params: &["f", "cx", "cy", "k"],
+        focal: F1,
+        pp: PP1,
+    },
+    ModelInfo {
+        name: "RADIAL_FISHEYE",
+        params: &["f", "cx", "cy", "k1", "k2"],
+        focal: F1,
+        pp: PP1,
+    },
+    ModelInfo {
+        name: "THIN_PRISM_FISHEYE",
+        params: &[
+            "fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2", "k3", "k4", "sx1", "sy1",
+        ],
+        focal: F2,
+        pp: PP2,
+    },
+    ModelInfo {
+        name: "RAD_TAN_THIN_PRISM_FISHEYE",
+        params: &[
+            "fx", "fy", "cx", "cy", "k0", "k1", "k2", "k3", "k4", "k5", "p0", "p1", "s0", "s1",
+            "s2", "s3",
+        ],
+        focal: F2,
+        pp: PP2,
+    },
+    ModelInfo {
+        name: "SIMPLE_DIVISION",
+        params: &["f", "cx", "cy", "k"],
+        focal: F1,
+        pp: PP1,
+    },
+    ModelInfo {
+        name: "DIVISION",
+        params: &["fx", "fy", "cx", "cy", "k"],
+        focal: F2,
+        pp: PP2,
+    },
+    ModelInfo {
+        name: "SIMPLE_FISHEYE",
+        params: &["f", "cx", "cy"],
+        focal: F1,
+        pp: PP1,
+    },
+    ModelInfo {
+        name: "FISHEYE",
+        params: &["fx", "fy", "cx", "cy"],
+        focal: F2,
+        pp: PP2,
+    },
+    ModelInfo {
+        name: "EUCM",
+        params: &["fx", "fy", "cx", "cy", "alpha", "beta"],
+        focal: F2,
+        pp: PP2,
+    },
+    ModelInfo {
+        name: "EQUIRECTANGULAR",
+        params: &["w", "h"],
+        focal: &[],
+        pp: &[],
+    },
+];
+
+impl CameraModel {
+    /// Every model, in id order.
+    pub const ALL: [CameraModel; 18] = [
+        CameraModel::SimplePinhole,
+        CameraModel::Pinhole,
+        CameraModel::SimpleRadial,
+        CameraModel::Radial,
+        CameraModel::OpenCv,
+        CameraModel::OpenCvFisheye,
+        CameraModel::FullOpenCv,
+        CameraModel::Fov,
+        CameraModel::SimpleRadialFisheye,
+        CameraModel::RadialFisheye,
+        CameraModel::ThinPrismFisheye,
+        CameraModel::RadTanThinPrismFisheye,
+        CameraModel::SimpleDivision,
+        CameraModel::Division,
+        CameraModel::SimpleFisheye,
+        CameraModel::Fisheye,
+        CameraModel::Eucm,
+        CameraModel::Equirectangular,
+    ];
+
+    fn info(self) -> &'static ModelInfo {
+        &INFO[self as usize]
+    }
+
+    /// COLMAP's numeric model id.
+    pub fn id(self) -> i32 {
+        self as i32
+    }
+
+    pub fn from_id(id: i64) -> Result<Self, GeometryError> {
+        if (0..18).contains(&id) {
+            Ok(Self::ALL[id as usize])
+        } else {
+            Err(GeometryError::UnknownModelId(id))
+        }
+    }
+
+    /// COLMAP's model name, e.g. `SIMPLE_RADIAL`.
+    pub fn name(self) -> &'static str {
+        self.info().name
+    }
+
+    pub fn from_name(name: &str) -> Result<Self, GeometryError> {
+        Self::ALL
+            .iter()
+            .copied()
+            .find(|m| m.name() == name)
+            .ok_or_else(|| GeometryError::UnknownModelName(name.to_string()))
+    }
+
+    pub fn num_params(self) -> usize {
+        self.info().params.len()
+    }
+
+    /// Parameter names in file order, e.g. `["f", "cx", "cy", "k"]`.
+    pub fn param_names(self) -> &'static [&'static str] {
+        self.info().params
+    }
+
+    pub fn focal_length_idxs(self) -> &'static [usize] {
+        self.info().focal
+    }
+
+    pub fn principal_point_idxs(self) -> &'static [usize] {
+        self.info().pp
+    }
+
+    /// False only for the spherical EQUIRECTANGULAR model, which has no image plane.
+    pub fn is_perspective(self) -> bool {
+        self != CameraModel::Equirectangular
+    }
+}
+
+impl std::fmt::Display for CameraModel {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// A camera: model, image size in pixels and parameters in COLMAP order.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Camera {
+    pub model: CameraModel,
+    pub width: u64,
+    pub height: u64,
+    pub params: Vec<f64>,
+}
+
+impl Camera {
+    /// Checked constructor: parameter count must match the model and every parameter
+    /// must be finite. (Size 0 is allowed: some tools write it for unknown sizes.)
+    pub fn new(
+        model: CameraModel,
+        width: u64,
+        height: u64,
+        params: Vec<f64>,
+    ) -> Result<Self, GeometryError> {
+        let cam = Camera {
+            model,
+            width,
+            height,
+            params,
+        };
+        cam.validate()?;
+        Ok(cam)
+    }
+
+    /// Checks parameter count and finiteness (for values built field by field).
+    pub fn validate(&self) -> Result<(), GeometryError> {
+        let expected = self.model.num_params();
+        if self.params.len() != expected {
+            return Err(GeometryError::ParamCount {
+                model: self.model.name(),
+                expected,
+                got: self.params.len(),
+            });
+        }
+        for (index, &value) in self.params.iter().enumerate() {
+            if !value.is_finite() {
+                return Err(GeometryError::NonFiniteParam {
+                    index,
+                    name: self.model.param_names()[index],
+                    value,
+                });
+            }
+        }
+        Ok(())
+    }
+
+    /// Mean focal length in pixels (fx, fy averaged; f for single-focal models).
+    /// For EQUIRECTANGULAR, the pixels per radian along x.
+    pub fn mean_focal_length(&self) -> f64 {
+        let idx = self.model.focal_length_idxs();
+        if idx.is_empty() {
+            return self.params[0] / (2.0 * std::f64::consts::PI);
+        }
+        idx.iter().map(|&i| self.params[i]).sum::<f64>() / idx.len() as f64
+    }
+
+    /// (fx, fy) of the pinhole part. For EQUIRECTANGULAR, pixels per radian.
+    pub fn focal_xy(&self) -> (f64, f64) {
+        let idx = self.model.focal_length_idxs();
+        match idx.len() {
+            1 => (self.params[idx[0]], self.params[idx[0]]),
+            2 => (self.params[idx[0]], self.params[idx[1]]),
+            _ => {
+                let f = self.params[0] / (2.0 * std::f64::consts::PI);
+                (f, self.params[1] / std::f64::consts::PI)
+            }
+        }
+    }
+
+    /// (cx, cy); the image centre for EQUIRECTANGULAR.
+    pub fn principal_point(&self) -> (f64, f64) {
+        let idx = self.model.principal_point_idxs();
+        if idx.is_empty() {
+            (self.params[0] / 2.0, self.params[1] / 2.0)
+        } else {
+            (self.params[idx[0]], self.params[idx[1]])
+        }
+    }
+
+    /// Pinhole calibration matrix K (distortion ignored).
+    pub fn calibration_matrix(&self) -> Matrix3<f64> {
+        let (fx, fy) = self.focal_xy();
+        let (cx, cy) = self.principal_point();
+        Matrix3::new(fx, 0.0, cx, 0.0, fy, cy, 0.0, 0.0, 1.0)
+    }
+
+    /// Projects a point in the camera frame to pixels (COLMAP `ImgFromCam`).
+    /// Returns None for points the model cannot image (behind a perspective camera,
+    /// outside a fisheye's valid angle, at the centre of a spherical camera).
+    pub fn project(&self, p_cam: &Vector3<f64>) -> Option<Vector2<f64>> {
+        models::img_from_cam(self.model, &self.params, p_cam)
+    }
+
+    /// Lifts a pixel to a ray in the camera frame (COLMAP `CamFromImg` / `CamRayFromImg`).
+    /// For perspective models the ray is (u, v, 1) on the normalised image plane; for
+    /// EQUIRECTANGULAR a unit bearing. None when the iterative undistortion does not
+    /// converge or the pixel is outside the model's domain.
+    pub fn unproject(&self, px: &Vector2<f64>) -> Option<Vector3<f64>> {
+        models::cam_ray_from_img(self.model, &self.params, px)
+    }
+
+    /// Pixel -> normalised image plane (u, v) with w = 1. None for EQUIRECTANGULAR.
+    pub fn cam_from_img(&self, px: &Vector2<f64>) -> Option<Vector2<f64>> {
+        if !self.model.is_perspective() {
+            return None;
+        }
+        self.unproject(px)
+            .map(|r| Vector2::new(r.x / r.z, r.y / r.z))
+    }
+
+    /// A pixel threshold expressed on the normalised image plane (COLMAP
+    /// `CamFromImgThreshold`: divided by the mean focal length).
+    pub fn cam_from_img_threshold(&self, px: f64) -> f64 {
+        px / self.mean_focal_length()
+    }
+
+    /// The camera of the same sensor after resizing the image by `s` (augmentation,
+    /// rescaled datasets): focal lengths and principal point times `s`, distortion
+    /// unchanged, size rounded. With COLMAP's corner-origin pixels, a pixel `x` of the
+    /// original maps exactly to `s * x`.
+    pub fn scaled(&self, s: f64) -> Result<Camera, GeometryError> {
+        if !(s.is_finite() && s > 0.0) {
+            return Err(GeometryError::InvalidScale(s));
+        }
+        let mut params = self.params.clone();
+        let m = self.model;
+        if m.is_perspective() {
+            for &i in m.focal_length_idxs().iter().chain(m.principal_point_idxs()) {
+                params[i] *= s;
+            }
+        } else {
+            params[0] *= s;
+            params[1] *= s;
+        }
+        Ok(Camera {
+            model: m,
+            width: (self.width as f64 * s).round() as u64,
+            height: (self.height as f64 * s).round() as u64,
+            params,
+        })
+    }
+
+    /// Whether a pixel lies inside the image rectangle [0, width) x [0, height).
+    pub fn contains(&self, px: &Vector2<f64>) -> bool {
+        px.x >= 0.0 && px.y >= 0.0 && px.x < self.width as f64 && px.y < self.height as f64
+    }
+}
+
+#[cfg(test)]
+mod tests;

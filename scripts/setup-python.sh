@@ -1,0 +1,20 @@
+#!/usr/bin/env bash
+# Optional: a Python venv with the independent tools the interop tests and the
+# benchmarks compare against (pycolmap, poselib, mcap). Prints the venv's python on
+# success; on failure (no python3, no network) prints nothing and the tests that need
+# it skip with a reason.
+set -uo pipefail
+venv="${PL2MAP_VENV:-$HOME/.cache/pl2map-rs/venv}"
+want="pycolmap==4.2.1 poselib==2.0.5 mcap==1.6.0 mcap-protobuf-support==0.6.0 protobuf numpy"
+stamp="$venv/.pl2map-requirements"
+if [ -x "$venv/bin/python" ] && [ "$(cat "$stamp" 2>/dev/null)" = "$want" ]; then
+  echo "$venv/bin/python"
+  exit 0
+fi
+command -v python3 >/dev/null 2>&1 || exit 0
+{
+  python3 -m venv "$venv" &&
+  "$venv/bin/python" -m pip install -q $want &&
+  echo "$want" > "$stamp"
+} >&2 || exit 0
+echo "$venv/bin/python"
