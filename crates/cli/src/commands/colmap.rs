@@ -8,6 +8,6 @@ pub enum Command {
 
 pub fn run(cmd: Command) -> anyhow::Result<()> {
     match cmd {
-        Command::Info { dir } => anyhow::bail!("{m} info {}: not built yet", dir.display()),
+        Command::Info { dir } => anyhow::bail!("colmap info {}: not built yet", dir.display()),
     }
 }
