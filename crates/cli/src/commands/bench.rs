@@ -1,13 +1,17 @@
+//! `pl2map bench ...`: each benchmark lives in its own file (`bench_<name>.rs`).
 use clap::Subcommand;
 
 #[derive(Subcommand)]
 pub enum Command {
     /// Reading a large binary COLMAP model, against pycolmap when available.
-    Colmap,
+    Colmap(super::bench_colmap::Args),
+    /// Pose solvers and RANSAC against poselib when available.
+    Pose(super::bench_pose::Args),
 }
 
 pub fn run(cmd: Command) -> anyhow::Result<()> {
     match cmd {
-        Command::Colmap => anyhow::bail!("bench colmap: not built yet"),
+        Command::Colmap(a) => super::bench_colmap::run(a),
+        Command::Pose(a) => super::bench_pose::run(a),
     }
 }

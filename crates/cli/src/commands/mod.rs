@@ -1,4 +1,6 @@
 pub mod bench;
+pub mod bench_colmap;
+pub mod bench_pose;
 pub mod colmap;
 pub mod limap;
 pub mod pose;
