@@ -1,1 +1,34 @@
-//! placeholder: filled by its issue
+//! The front-end of pl2map-rs: what turns an image into the network's input.
+//!
+//! - SIFT keypoints (OpenCV), top-K by response, and 128-d SIFT descriptors computed at
+//!   GIVEN positions: at a fixed scale and upright orientation, the same way at training
+//!   time (positions from the SfM model, which stores neither scale nor orientation) and
+//!   at query time (positions from the detector). See specs/pl2map.md section 1.
+//! - LSD line segments (OpenCV `createLineSegmentDetector`), longest first.
+//! - T points sampled along each segment (endpoints included) with a descriptor at each,
+//!   oriented along the segment.
+//!
+//! Every coordinate this crate returns or takes follows COLMAP's convention (centre of
+//! the top-left pixel at (0.5, 0.5)); OpenCV's integer-centre coordinates are converted
+//! here, once, in `convert`.
+
+mod config;
+mod convert;
+mod error;
+mod extract;
+mod lines;
+mod lsd;
+mod sift;
+
+pub mod bench;
+
+pub use config::{DescriptorConfig, FrontEndConfig, LsdConfig, SiftConfig};
+pub use convert::{gray_from_rgb, load_gray};
+pub use error::FeatureError;
+pub use extract::{ImageFeatures, extract, extract_batch};
+pub use lines::{describe_lines, sample_points};
+pub use lsd::detect_segments;
+pub use sift::{Keypoint, describe_points, detect_keypoints};
+
+/// SIFT descriptor dimension.
+pub const SIFT_DIM: usize = 128;

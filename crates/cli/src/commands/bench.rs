@@ -7,11 +7,14 @@ pub enum Command {
     Colmap(super::bench_colmap::Args),
     /// Pose solvers and RANSAC against poselib when available.
     Pose(super::bench_pose::Args),
+    /// Front-end: SIFT, LSD and line sampling per image; images/s on 1 and 2 threads.
+    Features(super::bench_features::Args),
 }
 
 pub fn run(cmd: Command) -> anyhow::Result<()> {
     match cmd {
         Command::Colmap(a) => super::bench_colmap::run(a),
         Command::Pose(a) => super::bench_pose::run(a),
+        Command::Features(a) => super::bench_features::run(a),
     }
 }

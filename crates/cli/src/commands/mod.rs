@@ -1,5 +1,6 @@
 pub mod bench;
 pub mod bench_colmap;
+pub mod bench_features;
 pub mod bench_pose;
 pub mod colmap;
 pub mod limap;

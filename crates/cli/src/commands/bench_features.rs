@@ -1,0 +1,81 @@
+use anyhow::{Context, bail};
+use features::FrontEndConfig;
+use std::path::{Path, PathBuf};
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// Folder searched recursively for .png / .jpg images (default: the 7-Scenes
+    /// sample frames of ../shared/data when present).
+    #[arg(long)]
+    images: Option<PathBuf>,
+    /// Use at most this many images.
+    #[arg(long, default_value_t = 24)]
+    limit: usize,
+    /// Keypoints per image (2048 = the query setting).
+    #[arg(long, default_value_t = 2048)]
+    max_keypoints: usize,
+}
+
+fn collect(dir: &Path, out: &mut Vec<PathBuf>) -> std::io::Result<()> {
+    let mut entries: Vec<_> = std::fs::read_dir(dir)?.collect::<Result<_, _>>()?;
+    entries.sort_by_key(|e| e.path());
+    for e in entries {
+        let p = e.path();
+        if p.is_dir() {
+            collect(&p, out)?;
+        } else if matches!(p.extension().and_then(|e| e.to_str()), Some("png" | "jpg" | "jpeg"))
+            && !p.to_string_lossy().contains(".depth.")
+        {
+            out.push(p);
+        }
+    }
+    Ok(())
+}
+
+pub fn run(args: Args) -> anyhow::Result<()> {
+    let dir = match args.images {
+        Some(d) => d,
+        None => {
+            let d = std::env::var_os("PL2MAP_SAMPLE_DATA")
+                .map(PathBuf::from)
+                .unwrap_or_else(|| PathBuf::from("../shared/data"))
+                .join("7scenes-stairs-mini");
+            if !d.is_dir() {
+                bail!("no --images given and no sample frames at {}; try `pl2map synth OUT` and pass --images OUT", d.display());
+            }
+            d
+        }
+    };
+    let mut paths = Vec::new();
+    collect(&dir, &mut paths).with_context(|| format!("listing {}", dir.display()))?;
+    paths.truncate(args.limit);
+    if paths.is_empty() {
+        bail!("no images under {}", dir.display());
+    }
+    let images = paths
+        .iter()
+        .map(|p| features::load_gray(p))
+        .collect::<Result<Vec<_>, _>>()?;
+    let (w, h) = images[0].dimensions();
+    let mut cfg = FrontEndConfig::query();
+    cfg.sift.max_keypoints = args.max_keypoints;
+    let steps = features::bench::step_times(&images, &cfg)?;
+    let t1 = features::bench::throughput(&images, &cfg, 1)?;
+    let t2 = features::bench::throughput(&images, &cfg, 2)?;
+    println!("front-end benchmark: {} images of {w}x{h} from {}", images.len(), dir.display());
+    println!("mean {:.0} keypoints, {:.0} segments per image (T = {})", steps.mean_keypoints, steps.mean_segments, cfg.samples_per_line);
+    println!();
+    println!("| step                                   | ms / image |");
+    println!("|----------------------------------------|-----------:|");
+    println!("| SIFT detect (top {:>4})                 | {:>10.1} |", cfg.sift.max_keypoints, steps.sift_detect_ms);
+    println!("| SIFT describe at keypoints             | {:>10.1} |", steps.sift_describe_ms);
+    println!("| LSD                                    | {:>10.1} |", steps.lsd_ms);
+    println!("| line sampling + descriptors            | {:>10.1} |", steps.line_sampling_ms);
+    println!();
+    println!("| threads | images/s |");
+    println!("|--------:|---------:|");
+    println!("|       1 | {t1:>8.2} |");
+    println!("|       2 | {t2:>8.2} |");
+    println!("speed-up 2 vs 1 threads: {:.2}x", t2 / t1);
+    Ok(())
+}

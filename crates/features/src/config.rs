@@ -1,0 +1,114 @@
+use crate::error::FeatureError;
+use serde::{Deserialize, Serialize};
+
+/// SIFT detection (OpenCV's parameters) and the top-K cut.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct SiftConfig {
+    /// Keep the K strongest keypoints (4096 for training images, 2048 for queries).
+    pub max_keypoints: usize,
+    pub n_octave_layers: i32,
+    pub contrast_threshold: f64,
+    pub edge_threshold: f64,
+    pub sigma: f64,
+}
+
+impl Default for SiftConfig {
+    fn default() -> Self {
+        SiftConfig {
+            max_keypoints: 4096,
+            n_octave_layers: 3,
+            contrast_threshold: 0.04,
+            edge_threshold: 10.0,
+            sigma: 1.6,
+        }
+    }
+}
+
+/// How a descriptor is computed at a given position.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct DescriptorConfig {
+    /// SIFT keypoint "size" (diameter in pixels) used for every descriptor: one fixed
+    /// scale, so that training positions (no scale known) and query detections are
+    /// described alike.
+    pub point_size: f32,
+    /// Size of the descriptors sampled along lines.
+    pub line_size: f32,
+}
+
+impl Default for DescriptorConfig {
+    fn default() -> Self {
+        DescriptorConfig {
+            point_size: 12.0,
+            line_size: 12.0,
+        }
+    }
+}
+
+/// LSD line detection.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct LsdConfig {
+    /// Segments shorter than this (pixels) are dropped.
+    pub min_length: f64,
+    /// Keep the longest N segments.
+    pub max_lines: usize,
+}
+
+impl Default for LsdConfig {
+    fn default() -> Self {
+        LsdConfig {
+            min_length: 15.0,
+            max_lines: 3000,
+        }
+    }
+}
+
+/// The whole front-end.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct FrontEndConfig {
+    pub sift: SiftConfig,
+    pub descriptor: DescriptorConfig,
+    pub lsd: LsdConfig,
+    /// Points sampled along each segment, endpoints included (T = 12 in PL2Map).
+    pub samples_per_line: usize,
+}
+
+impl Default for FrontEndConfig {
+    fn default() -> Self {
+        FrontEndConfig {
+            sift: SiftConfig::default(),
+            descriptor: DescriptorConfig::default(),
+            lsd: LsdConfig::default(),
+            samples_per_line: 12,
+        }
+    }
+}
+
+impl FrontEndConfig {
+    /// The query-time configuration: 2048 keypoints.
+    pub fn query() -> Self {
+        let mut c = Self::default();
+        c.sift.max_keypoints = 2048;
+        c
+    }
+
+    pub fn validate(&self) -> Result<(), FeatureError> {
+        let bad = |m: &str| Err(FeatureError::Config(m.to_string()));
+        if self.samples_per_line < 2 {
+            return bad("samples_per_line must be >= 2 (both endpoints)");
+        }
+        if !(self.descriptor.point_size > 0.0 && self.descriptor.line_size > 0.0) {
+            return bad("descriptor sizes must be > 0");
+        }
+        if !(self.sift.sigma > 0.0 && self.sift.n_octave_layers > 0) {
+            return bad("sift.sigma and sift.n_octave_layers must be > 0");
+        }
+        if !(self.lsd.min_length >= 0.0) {
+            return bad("lsd.min_length must be >= 0");
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,34 @@
+use std::path::PathBuf;
+use thiserror::Error;
+
+#[derive(Debug, Error)]
+pub enum FeatureError {
+    #[error("OpenCV {what}: {source}")]
+    OpenCv {
+        what: &'static str,
+        #[source]
+        source: opencv::Error,
+    },
+    #[error("{path}: cannot read image: {source}")]
+    Image {
+        path: PathBuf,
+        #[source]
+        source: image::ImageError,
+    },
+    #[error("image {width}x{height} is too large or empty for OpenCV")]
+    ImageSize { width: u32, height: u32 },
+    #[error("OpenCV returned {got} descriptors for {expected} positions")]
+    DescriptorCount { expected: usize, got: usize },
+    #[error("invalid front-end configuration: {0}")]
+    Config(String),
+}
+
+pub(crate) trait CvContext<T> {
+    fn cv(self, what: &'static str) -> Result<T, FeatureError>;
+}
+
+impl<T> CvContext<T> for opencv::Result<T> {
+    fn cv(self, what: &'static str) -> Result<T, FeatureError> {
+        self.map_err(|source| FeatureError::OpenCv { what, source })
+    }
+}

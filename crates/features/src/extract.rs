@@ -1,0 +1,91 @@
+//! Everything the network needs from one image, and the parallel batch driver.
+
+use crate::config::FrontEndConfig;
+use crate::error::FeatureError;
+use crate::{SIFT_DIM, describe_lines, describe_points, detect_keypoints, detect_segments};
+use image::GrayImage;
+use rayon::prelude::*;
+
+/// Front-end output for one image, as plain row-major arrays (COLMAP pixels).
+#[derive(Clone, Debug, PartialEq, Default)]
+pub struct ImageFeatures {
+    /// N x 2.
+    pub keypoints: Vec<[f64; 2]>,
+    /// N x D.
+    pub descriptors: Vec<f32>,
+    /// M x 4: x1 y1 x2 y2.
+    pub segments: Vec<[f64; 4]>,
+    /// M x T x D.
+    pub line_descriptors: Vec<f32>,
+    /// T.
+    pub samples_per_line: usize,
+    /// D.
+    pub dim: usize,
+}
+
+impl ImageFeatures {
+    pub fn num_keypoints(&self) -> usize {
+        self.keypoints.len()
+    }
+
+    pub fn num_segments(&self) -> usize {
+        self.segments.len()
+    }
+
+    pub fn descriptor(&self, i: usize) -> &[f32] {
+        &self.descriptors[i * self.dim..(i + 1) * self.dim]
+    }
+
+    /// The T descriptors of line `j`, T x D.
+    pub fn line_descriptor(&self, j: usize) -> &[f32] {
+        let n = self.samples_per_line * self.dim;
+        &self.line_descriptors[j * n..(j + 1) * n]
+    }
+}
+
+/// Detects and describes keypoints and lines of one image (the query path).
+pub fn extract(img: &GrayImage, cfg: &FrontEndConfig) -> Result<ImageFeatures, FeatureError> {
+    cfg.validate()?;
+    let keypoints: Vec<[f64; 2]> = detect_keypoints(img, &cfg.sift)?
+        .into_iter()
+        .map(|k| k.xy)
+        .collect();
+    let descriptors = describe_points(img, &keypoints, &cfg.sift, &cfg.descriptor)?;
+    let segments = detect_segments(img, &cfg.lsd)?;
+    let line_descriptors = describe_lines(
+        img,
+        &segments,
+        cfg.samples_per_line,
+        &cfg.sift,
+        &cfg.descriptor,
+    )?;
+    Ok(ImageFeatures {
+        keypoints,
+        descriptors,
+        segments,
+        line_descriptors,
+        samples_per_line: cfg.samples_per_line,
+        dim: SIFT_DIM,
+    })
+}
+
+/// Runs `f` over items in parallel (rayon) with results in input order, so the output
+/// does not depend on the thread count. A progress bar counts finished items.
+pub fn extract_batch<T, F>(
+    items: &[T],
+    progress: &indicatif::ProgressBar,
+    f: F,
+) -> Vec<Result<ImageFeatures, FeatureError>>
+where
+    T: Sync,
+    F: Fn(&T) -> Result<ImageFeatures, FeatureError> + Sync,
+{
+    items
+        .par_iter()
+        .map(|item| {
+            let r = f(item);
+            progress.inc(1);
+            r
+        })
+        .collect()
+}

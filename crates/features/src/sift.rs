@@ -1,0 +1,160 @@
+//! SIFT keypoints and descriptors through OpenCV.
+
+use crate::SIFT_DIM;
+use crate::config::{DescriptorConfig, SiftConfig};
+use crate::convert::{from_cv, mat_view, to_cv};
+use crate::error::{CvContext, FeatureError};
+use image::GrayImage;
+use opencv::core::{
+    KeyPoint, KeyPointTraitConst, Mat, MatTraitConst, MatTraitConstManual, Vector, no_array,
+};
+use opencv::features2d::{Feature2DTrait, SIFT};
+
+/// A detected keypoint, COLMAP pixel convention.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Keypoint {
+    pub xy: [f64; 2],
+    pub response: f32,
+    /// OpenCV's keypoint size (diameter in pixels) and orientation (degrees): kept for
+    /// inspection; descriptors use the fixed scale of `DescriptorConfig`.
+    pub size: f32,
+    pub angle: f32,
+}
+
+/// OpenCV runs its own loops in parallel and gathers their results in scheduling
+/// order; we parallelise over images instead and keep OpenCV single-threaded so that
+/// its output is a pure function of the image.
+pub(crate) fn single_threaded_opencv() {
+    static ONCE: std::sync::Once = std::sync::Once::new();
+    ONCE.call_once(|| {
+        let _ = opencv::core::set_num_threads(1);
+    });
+}
+
+/// OpenCV 4.6's SIFT detector starts from the image upsampled x2 (octave -1) and maps
+/// positions back with `x / 2`, but its bilinear upsampling puts the doubled image's
+/// pixel `i` at source position `(i + 0.5) / 2 - 0.5`, so every detected position comes
+/// out `+0.25` px too far right and down (OpenCV >= 4.8 has `enable_precise_upscale`
+/// for this). The test `gaussian_blob_is_found_at_its_colmap_centre` measures it.
+/// Descriptors at given positions are not affected: they are computed on a pyramid
+/// that starts at octave 0 (no upsampling).
+const UPSAMPLING_BIAS: f64 = 0.25;
+
+fn sift(cfg: &SiftConfig) -> Result<opencv::core::Ptr<SIFT>, FeatureError> {
+    // nfeatures = 0: OpenCV's own top-K uses nth_element, whose choice among equal
+    // responses is unspecified. We cut after a total order instead.
+    SIFT::create(
+        0,
+        cfg.n_octave_layers,
+        cfg.contrast_threshold,
+        cfg.edge_threshold,
+        cfg.sigma,
+    )
+    .cv("SIFT::create")
+}
+
+/// Detects SIFT keypoints and keeps the `max_keypoints` strongest.
+///
+/// Keypoints that OpenCV reports several times at one position (one per dominant
+/// orientation) are merged: descriptors are computed upright, so the copies would be
+/// identical inputs. Order: response descending, then y, then x (a total order).
+pub fn detect_keypoints(img: &GrayImage, cfg: &SiftConfig) -> Result<Vec<Keypoint>, FeatureError> {
+    single_threaded_opencv();
+    let mat = mat_view(img)?;
+    let mut detector = sift(cfg)?;
+    let mut kps = Vector::<KeyPoint>::new();
+    detector
+        .detect(&mat, &mut kps, &no_array())
+        .cv("SIFT detect")?;
+    let mut out: Vec<Keypoint> = kps
+        .iter()
+        .map(|k| Keypoint {
+            xy: [
+                from_cv(k.pt().x) - UPSAMPLING_BIAS,
+                from_cv(k.pt().y) - UPSAMPLING_BIAS,
+            ],
+            response: k.response(),
+            size: k.size(),
+            angle: k.angle(),
+        })
+        .filter(|k| k.response.is_finite() && k.xy.iter().all(|v| v.is_finite()))
+        .collect();
+    out.sort_by(|a, b| {
+        b.response
+            .total_cmp(&a.response)
+            .then(a.xy[1].total_cmp(&b.xy[1]))
+            .then(a.xy[0].total_cmp(&b.xy[0]))
+            .then(b.size.total_cmp(&a.size))
+    });
+    // Merge positions repeated with another orientation (keep the strongest).
+    let mut seen = std::collections::HashSet::with_capacity(out.len());
+    out.retain(|k| seen.insert((k.xy[0].to_bits(), k.xy[1].to_bits())));
+    out.truncate(cfg.max_keypoints);
+    Ok(out)
+}
+
+/// A keypoint for OpenCV's descriptor at a COLMAP position with a fixed size and angle.
+/// `octave = 0` makes OpenCV describe on the first layer of the first octave (the input
+/// at its own resolution), whatever the size.
+pub(crate) fn cv_keypoint(
+    xy: [f64; 2],
+    size: f32,
+    angle_deg: f32,
+) -> Result<KeyPoint, FeatureError> {
+    KeyPoint::new_coords(to_cv(xy[0]), to_cv(xy[1]), size, angle_deg, 0.0, 0, -1)
+        .cv("KeyPoint::new")
+}
+
+/// SIFT descriptors at given keypoints (each with its own angle), L2-normalised rows.
+pub(crate) fn describe_keypoints(
+    img: &GrayImage,
+    keypoints: Vector<KeyPoint>,
+    sift_cfg: &SiftConfig,
+) -> Result<Vec<f32>, FeatureError> {
+    single_threaded_opencv();
+    let n = keypoints.len();
+    if n == 0 {
+        return Ok(Vec::new());
+    }
+    let mat = mat_view(img)?;
+    let mut extractor = sift(sift_cfg)?;
+    let mut kps = keypoints;
+    let mut desc = Mat::default();
+    extractor
+        .compute(&mat, &mut kps, &mut desc)
+        .cv("SIFT compute")?;
+    // OpenCV may drop keypoints it cannot describe; our labels are index-aligned with
+    // the positions, so any drop is an error rather than a silent shift.
+    if kps.len() != n || desc.rows() as usize != n || desc.cols() as usize != SIFT_DIM {
+        return Err(FeatureError::DescriptorCount {
+            expected: n,
+            got: desc.rows().max(0) as usize,
+        });
+    }
+    let data = desc.data_typed::<f32>().cv("descriptor data")?;
+    let mut out = data.to_vec();
+    for row in out.chunks_exact_mut(SIFT_DIM) {
+        let norm = row.iter().map(|v| v * v).sum::<f32>().sqrt();
+        if norm > 0.0 {
+            row.iter_mut().for_each(|v| *v /= norm);
+        }
+    }
+    Ok(out)
+}
+
+/// 128-d SIFT descriptors at given positions (COLMAP convention), upright, at the fixed
+/// size of `DescriptorConfig::point_size`. Row i describes position i; rows are
+/// L2-normalised. Positions outside the image are described from the clamped border
+/// (OpenCV skips samples outside), never dropped.
+pub fn describe_points(
+    img: &GrayImage,
+    positions: &[[f64; 2]],
+    sift_cfg: &SiftConfig,
+    desc_cfg: &DescriptorConfig,
+) -> Result<Vec<f32>, FeatureError> {
+    let mut kps = Vector::<KeyPoint>::with_capacity(positions.len());
+    for p in positions {
+        kps.push(cv_keypoint(*p, desc_cfg.point_size, 0.0)?);
+    }
+    describe_keypoints(img, kps, sift_cfg)
+}

@@ -1,0 +1,257 @@
+//! Front-end behaviour on images with known geometry, and on real frames.
+
+use features::*;
+use image::{GrayImage, Luma};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use std::path::PathBuf;
+
+/// A textured test image: random discs and rectangles of random grey on noise.
+fn textured(w: u32, h: u32, seed: u64) -> GrayImage {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let mut img = GrayImage::from_fn(w, h, |_, _| Luma([rng.random_range(100..130u8)]));
+    for _ in 0..250 {
+        let (cx, cy) = (
+            rng.random_range(0.0..w as f64),
+            rng.random_range(0.0..h as f64),
+        );
+        let r = rng.random_range(3.0..25.0);
+        let v: u8 = rng.random();
+        let rect = rng.random_bool(0.4);
+        for y in 0..h {
+            for x in 0..w {
+                let (dx, dy) = (x as f64 + 0.5 - cx, y as f64 + 0.5 - cy);
+                let inside = if rect {
+                    dx.abs() < r && dy.abs() < 0.6 * r
+                } else {
+                    dx * dx + dy * dy < r * r
+                };
+                if inside {
+                    img.put_pixel(x, y, Luma([v]));
+                }
+            }
+        }
+    }
+    img
+}
+
+#[test]
+fn gaussian_blob_is_found_at_its_colmap_centre() {
+    // Blobs centred on a pixel centre (COLMAP (200.5, 150.5)), on a pixel corner and
+    // in between: the detected position must follow the true centre, not the grid.
+    for (cx, cy) in [(200.5, 150.5), (200.0, 150.0), (200.3, 149.8)] {
+        blob_at(cx, cy);
+    }
+}
+
+fn blob_at(cx: f64, cy: f64) {
+    let s = 4.0f64;
+    let img = GrayImage::from_fn(400, 300, |x, y| {
+        let (dx, dy) = (x as f64 + 0.5 - cx, y as f64 + 0.5 - cy);
+        Luma([(30.0 + 200.0 * (-(dx * dx + dy * dy) / (2.0 * s * s)).exp()).round() as u8])
+    });
+    let kps = detect_keypoints(&img, &SiftConfig::default()).unwrap();
+    let best = kps
+        .iter()
+        .min_by(|a, b| {
+            let da = (a.xy[0] - cx).hypot(a.xy[1] - cy);
+            let db = (b.xy[0] - cx).hypot(b.xy[1] - cy);
+            da.total_cmp(&db)
+        })
+        .expect("a keypoint on the blob");
+    let err = (best.xy[0] - cx).hypot(best.xy[1] - cy);
+    eprintln!(
+        "blob at ({cx}, {cy}): detected {:?}, {err:.3} px off",
+        best.xy
+    );
+    assert!(
+        err < 0.1,
+        "blob at ({cx}, {cy}) detected at {:?} ({err} px off)",
+        best.xy
+    );
+}
+
+#[test]
+fn step_edge_segment_lies_on_the_pixel_boundary() {
+    // Dark columns 0..=99, bright from 100: the edge is the boundary x = 100 in COLMAP
+    // coordinates (99.5 in OpenCV's).
+    let img = GrayImage::from_fn(200, 160, |x, _| Luma([if x < 100 { 40 } else { 210 }]));
+    let segs = detect_segments(&img, &LsdConfig::default()).unwrap();
+    assert!(!segs.is_empty());
+    let s = segs[0];
+    assert!(
+        (s[0] - 100.0).abs() < 0.15 && (s[2] - 100.0).abs() < 0.15,
+        "segment {s:?}"
+    );
+    assert!(
+        (s[3] - s[1]).abs() > 120.0,
+        "segment should span most of the edge: {s:?}"
+    );
+}
+
+#[test]
+fn extraction_is_deterministic_and_thread_count_independent() {
+    let imgs: Vec<GrayImage> = (0..4).map(|i| textured(320, 240, i)).collect();
+    let cfg = FrontEndConfig::default();
+    let run = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| {
+            extract_batch(&imgs, &indicatif::ProgressBar::hidden(), |img| {
+                extract(img, &cfg)
+            })
+            .into_iter()
+            .map(|r| r.unwrap())
+            .collect::<Vec<_>>()
+        })
+    };
+    let one = run(1);
+    let two = run(2);
+    assert_eq!(one, two);
+    for f in &one {
+        assert!(f.num_keypoints() > 100, "{} keypoints", f.num_keypoints());
+        assert!(f.num_segments() > 20, "{} segments", f.num_segments());
+        assert_eq!(f.descriptors.len(), f.num_keypoints() * SIFT_DIM);
+        assert_eq!(f.line_descriptors.len(), f.num_segments() * 12 * SIFT_DIM);
+        // Unit-norm descriptor rows.
+        let n: f32 = f.descriptor(0).iter().map(|v| v * v).sum();
+        assert!((n - 1.0).abs() < 1e-4);
+    }
+}
+
+#[test]
+fn top_k_keeps_the_strongest_unique_positions() {
+    let img = textured(320, 240, 7);
+    let all = detect_keypoints(
+        &img,
+        &SiftConfig {
+            max_keypoints: usize::MAX,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let top = detect_keypoints(
+        &img,
+        &SiftConfig {
+            max_keypoints: 50,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    assert_eq!(top.len(), 50);
+    assert_eq!(&all[..50], &top[..]);
+    assert!(top.windows(2).all(|w| w[0].response >= w[1].response));
+    let mut pos: Vec<_> = all
+        .iter()
+        .map(|k| (k.xy[0].to_bits(), k.xy[1].to_bits()))
+        .collect();
+    pos.sort();
+    pos.dedup();
+    assert_eq!(pos.len(), all.len(), "positions are unique");
+}
+
+#[test]
+fn describe_points_keeps_every_position_in_order() {
+    let img = textured(320, 240, 3);
+    let positions = [
+        [0.5, 0.5],
+        [160.0, 120.0],
+        [319.5, 239.5],
+        [-3.0, 50.0],
+        [100.25, 80.75],
+    ];
+    let d = describe_points(
+        &img,
+        &positions,
+        &SiftConfig::default(),
+        &DescriptorConfig::default(),
+    )
+    .unwrap();
+    assert_eq!(d.len(), positions.len() * SIFT_DIM);
+    // Order: describing a single position reproduces its row.
+    let one = describe_points(
+        &img,
+        &positions[1..2],
+        &SiftConfig::default(),
+        &DescriptorConfig::default(),
+    )
+    .unwrap();
+    assert_eq!(&d[SIFT_DIM..2 * SIFT_DIM], &one[..]);
+}
+
+fn cosine(a: &[f32], b: &[f32]) -> f32 {
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
+}
+
+/// Rotating the image by 90 degrees and the segment with it gives the same line
+/// descriptors: they are oriented along the segment.
+#[test]
+fn line_descriptors_follow_the_segment_orientation() {
+    let img = textured(240, 240, 11);
+    let (w, h) = img.dimensions();
+    // Rotate 90 deg clockwise: pixel (x, y) -> (h - 1 - y, x); in COLMAP coordinates
+    // the continuous point (u, v) -> (h - v, u).
+    let rot = GrayImage::from_fn(h, w, |x, y| *img.get_pixel(y, h - 1 - x));
+    let seg = [60.3, 70.7, 170.2, 150.9];
+    let map = |u: f64, v: f64| [h as f64 - v, u];
+    let a = map(seg[0], seg[1]);
+    let b = map(seg[2], seg[3]);
+    let seg_rot = [a[0], a[1], b[0], b[1]];
+    let cfg = FrontEndConfig::default();
+    let d0 = describe_lines(&img, &[seg], 12, &cfg.sift, &cfg.descriptor).unwrap();
+    let d1 = describe_lines(&rot, &[seg_rot], 12, &cfg.sift, &cfg.descriptor).unwrap();
+    for i in 0..12 {
+        let c = cosine(
+            &d0[i * SIFT_DIM..(i + 1) * SIFT_DIM],
+            &d1[i * SIFT_DIM..(i + 1) * SIFT_DIM],
+        );
+        assert!(c > 0.97, "sample {i}: cosine {c}");
+    }
+    // Control: upright point descriptors do change under the rotation.
+    let p = sample_points(&seg, 12)[5];
+    let pr = map(p[0], p[1]);
+    let u0 = describe_points(&img, &[p], &cfg.sift, &cfg.descriptor).unwrap();
+    let u1 = describe_points(&rot, &[pr], &cfg.sift, &cfg.descriptor).unwrap();
+    assert!(cosine(&u0, &u1) < 0.9);
+}
+
+#[test]
+fn samples_include_both_endpoints() {
+    let pts = sample_points(&[10.0, 20.0, 32.0, 42.0], 12);
+    assert_eq!(pts.len(), 12);
+    assert_eq!(pts[0], [10.0, 20.0]);
+    assert!((pts[11][0] - 32.0).abs() < 1e-12 && (pts[11][1] - 42.0).abs() < 1e-12);
+    assert!((pts[1][0] - 12.0).abs() < 1e-12);
+}
+
+fn sample_data() -> Option<PathBuf> {
+    let p = std::env::var_os("PL2MAP_SAMPLE_DATA")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data"));
+    p.is_dir().then_some(p)
+}
+
+#[test]
+fn real_7scenes_frame() {
+    let Some(data) = sample_data() else {
+        eprintln!(
+            "SKIPPED real_7scenes_frame: no sample data (set PL2MAP_SAMPLE_DATA or provide ../shared/data)"
+        );
+        return;
+    };
+    let img =
+        load_gray(&data.join("7scenes-stairs-mini/stairs/seq-01/frame-000000.color.jpg")).unwrap();
+    let f = extract(&img, &FrontEndConfig::query()).unwrap();
+    eprintln!(
+        "7-Scenes stairs frame: {} keypoints, {} segments",
+        f.num_keypoints(),
+        f.num_segments()
+    );
+    assert!(f.num_keypoints() > 300 && f.num_keypoints() <= 2048);
+    assert!(f.num_segments() > 30);
+    for k in &f.keypoints {
+        assert!(k[0] > 0.0 && k[0] < 640.0 && k[1] > 0.0 && k[1] < 480.0);
+    }
+}

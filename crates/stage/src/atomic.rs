@@ -1,0 +1,93 @@
+use crate::{StageError, io_err};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+/// A file written under a temporary name in its destination folder and renamed to its
+/// final name by `commit` (after an fsync). Dropped without `commit`, the temp file is
+/// removed; killed, it leaves only a `.<name>.tmp*` file that no reader looks for.
+pub struct AtomicFile {
+    tmp: tempfile::NamedTempFile,
+    dest: PathBuf,
+}
+
+impl AtomicFile {
+    pub fn create(dest: impl AsRef<Path>) -> Result<Self, StageError> {
+        let dest = dest.as_ref().to_path_buf();
+        let dir = match dest.parent() {
+            Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+            _ => PathBuf::from("."),
+        };
+        std::fs::create_dir_all(&dir).map_err(io_err(&dir))?;
+        let prefix = format!(
+            ".{}.",
+            dest.file_name()
+                .map(|n| n.to_string_lossy().into_owned())
+                .unwrap_or_default()
+        );
+        let tmp = tempfile::Builder::new()
+            .prefix(&prefix)
+            .suffix(".tmp")
+            .tempfile_in(&dir)
+            .map_err(io_err(&dir))?;
+        Ok(AtomicFile { tmp, dest })
+    }
+
+    pub fn file(&mut self) -> &mut std::fs::File {
+        self.tmp.as_file_mut()
+    }
+
+    pub fn dest(&self) -> &Path {
+        &self.dest
+    }
+
+    /// Flushes to disk and moves the file to its final name.
+    pub fn commit(self) -> Result<(), StageError> {
+        self.tmp.as_file().sync_all().map_err(io_err(&self.dest))?;
+        let dest = self.dest;
+        self.tmp.persist(&dest).map_err(|e| StageError::Io {
+            path: dest.clone(),
+            source: e.error,
+        })?;
+        Ok(())
+    }
+}
+
+impl Write for AtomicFile {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        self.tmp.write(buf)
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.tmp.flush()
+    }
+}
+
+/// Writes `bytes` to `dest` atomically.
+pub fn write_atomic(dest: impl AsRef<Path>, bytes: &[u8]) -> Result<(), StageError> {
+    let mut f = AtomicFile::create(dest)?;
+    let path = f.dest().to_path_buf();
+    f.write_all(bytes).map_err(io_err(path))?;
+    f.commit()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn commit_renames_and_drop_cleans_up() {
+        let dir = tempfile::tempdir().unwrap();
+        let dest = dir.path().join("sub/out.bin");
+        write_atomic(&dest, b"hello").unwrap();
+        assert_eq!(std::fs::read(&dest).unwrap(), b"hello");
+        {
+            let mut f = AtomicFile::create(dir.path().join("never.bin")).unwrap();
+            f.write_all(b"partial").unwrap();
+            // dropped without commit
+        }
+        let names: Vec<_> = std::fs::read_dir(dir.path())
+            .unwrap()
+            .map(|e| e.unwrap().file_name())
+            .collect();
+        assert_eq!(names.len(), 1, "{names:?}");
+    }
+}
