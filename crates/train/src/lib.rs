@@ -1,1 +1,3 @@
-//! placeholder: filled by its issue
+//! The trainer of pl2map-rs.
+
+pub mod augment;
