@@ -123,6 +123,6 @@ mod tests {
         // (1,1): only the first; (2,2): 2.0 cm is not < 2 (strict); (5,5): three.
         assert_eq!(s.accuracy, vec![0.25, 0.25, 0.5, 0.75, 0.75]);
         assert!((s.median_cm - 3.0).abs() < 1e-12);
-        assert_eq!(median(&[]).is_nan(), true);
+        assert!(median(&[]).is_nan());
     }
 }

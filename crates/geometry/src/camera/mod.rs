@@ -368,9 +368,11 @@ impl Camera {
     }
 
     /// The camera of the same sensor after resizing the image by `s` (augmentation,
-    /// rescaled datasets): focal lengths and principal point times `s`, distortion
-    /// unchanged, size rounded. With COLMAP's corner-origin pixels, a pixel `x` of the
-    /// original maps exactly to `s * x`.
+    /// rescaled datasets): focal lengths and principal point times `s` (for
+    /// EQUIRECTANGULAR its width and height parameters), distortion unchanged (every
+    /// distortion parameter acts on normalised coordinates or angles), size rounded.
+    /// With COLMAP's corner-origin pixels, a pixel `x` of the original maps exactly to
+    /// `s * x`, for every model.
     pub fn scaled(&self, s: f64) -> Result<Camera, GeometryError> {
         if !(s.is_finite() && s > 0.0) {
             return Err(GeometryError::InvalidScale(s));

@@ -1,5 +1,11 @@
 use super::*;
 
+mod behaviour;
+mod cameras;
+mod domain;
+mod roundtrip;
+mod scaling;
+
 #[test]
 fn model_table_matches_colmap_counts() {
     let counts = [3, 4, 4, 5, 8, 8, 12, 5, 4, 5, 12, 16, 4, 5, 3, 4, 6, 2];
