@@ -1,0 +1,105 @@
+//! Errors of the limap crate.
+//!
+//! Parsers of a single file return [`ParseError`] (the place inside the text and what was
+//! expected there); the file-level readers wrap it with the path in [`LimapError::Parse`].
+
+use std::path::PathBuf;
+
+use thiserror::Error;
+
+use crate::check::Problem;
+
+/// A malformed LIMAP text file: where (1-based line and byte column) and what was expected.
+#[derive(Debug, Clone, PartialEq, Eq, Error)]
+#[error("line {line}, column {column}: expected {expected}, found {found}")]
+pub struct ParseError {
+    pub line: usize,
+    pub column: usize,
+    pub expected: String,
+    /// The offending token (quoted, shortened when long) or `end of file`.
+    pub found: String,
+}
+
+/// Everything that can go wrong reading, checking or writing LIMAP outputs.
+#[derive(Debug, Error)]
+pub enum LimapError {
+    #[error("{}: {source}", path.display())]
+    Io {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("{}: {source}", path.display())]
+    Parse {
+        path: PathBuf,
+        #[source]
+        source: ParseError,
+    },
+    #[error("{}: not valid UTF-8 (first invalid byte at offset {offset})", path.display())]
+    NotUtf8 { path: PathBuf, offset: usize },
+    #[error(
+        "{}: holds {count} files named track*.txt, so LIMAP reads track_0.txt .. track_{last}.txt, \
+         but track_{missing}.txt is missing",
+        dir.display(),
+        last = count.saturating_sub(1)
+    )]
+    MissingTrack {
+        dir: PathBuf,
+        count: usize,
+        missing: usize,
+    },
+    #[error(
+        "{}: LIMAP counts every track*.txt file as a track, but {name:?} is not named track_<index>.txt",
+        dir.display()
+    )]
+    StrayTrackFile { dir: PathBuf, name: String },
+    #[error(
+        "{}: expected segments_<image id>.txt with a non-negative integer id, found {name:?}",
+        dir.display()
+    )]
+    BadSegmentsFileName { dir: PathBuf, name: String },
+    #[error(
+        "{}: no segments folder found (looked for {}); pass the folder explicitly",
+        root.display(),
+        looked_for
+    )]
+    SegmentsNotFound { root: PathBuf, looked_for: String },
+    #[error(
+        "{}: {} candidate segments folders ({}); pass the one used for triangulation explicitly",
+        root.display(),
+        candidates.len(),
+        candidates.iter().map(|p| p.display().to_string()).collect::<Vec<_>>().join(", ")
+    )]
+    SegmentsAmbiguous {
+        root: PathBuf,
+        candidates: Vec<PathBuf>,
+    },
+    #[error("{}: not a directory", path.display())]
+    NotADirectory { path: PathBuf },
+    /// A value handed to a writer that the format cannot hold or LIMAP could not read back.
+    #[error("cannot write {what}: {reason}")]
+    InvalidData { what: String, reason: String },
+    /// A folder whose files parse but disagree with each other (see [`crate::check`]).
+    #[error("{}: {} consistency error(s); first: {}", root.display(), problems.len(),
+        problems.first().map(|p| p.to_string()).unwrap_or_default())]
+    Inconsistent {
+        root: PathBuf,
+        problems: Vec<Problem>,
+    },
+}
+
+impl LimapError {
+    pub(crate) fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
+        LimapError::Io {
+            path: path.into(),
+            source,
+        }
+    }
+
+    pub(crate) fn invalid(what: impl Into<String>, reason: impl Into<String>) -> Self {
+        LimapError::InvalidData {
+            what: what.into(),
+            reason: reason.into(),
+        }
+    }
+}
