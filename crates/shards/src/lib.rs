@@ -1,1 +1,43 @@
-//! placeholder: filled by its issue
+//! MCAP label shards (DESIGN.md "Label shard (MCAP)").
+//!
+//! A shard is one MCAP file holding up to `frames_per_shard` consecutive frames of a
+//! run, with zstd chunks and the full index (chunk indexes, message indexes,
+//! statistics, metadata index, summary offsets). Each frame is one log time
+//! (`frame_id * 100 ms`, see [`FRAME_PERIOD_NS`]) and these channels, all protobuf
+//! with their schema (a binary FileDescriptorSet) embedded:
+//!
+//! | topic | schema | content |
+//! |---|---|---|
+//! | `/camera/calibration` | foxglove.CameraCalibration | K, distortion, P = [K\|0] |
+//! | `/tf` | foxglove.FrameTransform | the camera's pose in `world` |
+//! | `/camera/image` | foxglove.CompressedImage | the original image file's bytes |
+//! | `/labels` | pl2map.FrameLabels | everything the trainer needs but the image |
+//! | `/labels/points` | foxglove.PointCloud | valid 3D point labels (float32 x y z) |
+//! | `/labels/lines` | foxglove.SceneUpdate | valid 3D line labels (LINE_LIST) |
+//!
+//! So any MCAP reader (Python's `mcap` + `mcap-protobuf-support`, Foxglove) decodes a
+//! shard without this crate. [`write_shard`] writes one file; [`plan_shards`] and
+//! [`write_shards`] split a run into shards and write a range of them in parallel,
+//! returning a [`Manifest`]; [`ShardReader`] streams frames back, seeks by frame id
+//! and reads any subset of shards.
+
+mod error;
+mod manifest;
+mod plan;
+mod reader;
+mod record;
+pub mod schema;
+mod visual;
+mod writer;
+
+pub use error::ShardError;
+pub use manifest::{Manifest, ManifestShard};
+pub use plan::{FrameSource, ShardJob, ShardPlan, plan_shards, shard_file_name, write_shards};
+pub use reader::{ReaderOptions, ShardFile, ShardReader};
+pub use record::{FrameRecord, ImageFormat, LabelSource, Split};
+pub use visual::{CAMERA_FRAME, LINES_ENTITY_ID, WORLD_FRAME, foxglove_distortion};
+pub use writer::{
+    FRAME_PERIOD_NS, LIBRARY, SHARD_FORMAT_VERSION, SHARD_METADATA_NAME, ShardConfig, ShardInfo,
+    TOPIC_CALIBRATION, TOPIC_IMAGE, TOPIC_LABELS, TOPIC_LINES, TOPIC_POINTS, TOPIC_TF,
+    frame_id_of_log_time, frame_log_time, write_shard,
+};

@@ -1,0 +1,178 @@
+//! Splitting a run's frames into shards, and writing a range of shards (one work
+//! unit, `--shards a..b`) in parallel.
+
+use crate::error::ShardError;
+use crate::manifest::{Manifest, ManifestShard};
+use crate::record::FrameRecord;
+use crate::writer::{SHARD_FORMAT_VERSION, ShardConfig, ShardInfo, write_frames};
+use rayon::prelude::*;
+use std::collections::BTreeMap;
+use std::ops::Range;
+use std::path::Path;
+
+/// One planned shard: its index in the run, its file name and its frames.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct ShardPlan {
+    pub index: usize,
+    pub file_name: String,
+    pub frame_ids: Vec<u64>,
+}
+
+/// File name of shard `index`.
+pub fn shard_file_name(index: usize) -> String {
+    format!("shard-{index:05}.mcap")
+}
+
+/// Shard k holds frames `[k F, (k+1) F)` of `frame_ids`, which must be strictly
+/// increasing. No frames gives no shards.
+pub fn plan_shards(
+    frame_ids: &[u64],
+    frames_per_shard: usize,
+) -> Result<Vec<ShardPlan>, ShardError> {
+    if frames_per_shard == 0 {
+        return Err(ShardError::ZeroFramesPerShard);
+    }
+    if let Some(w) = frame_ids.windows(2).find(|w| w[1] <= w[0]) {
+        return Err(ShardError::FramesNotSorted {
+            previous: w[0],
+            next: w[1],
+        });
+    }
+    Ok(frame_ids
+        .chunks(frames_per_shard)
+        .enumerate()
+        .map(|(index, ids)| ShardPlan {
+            index,
+            file_name: shard_file_name(index),
+            frame_ids: ids.to_vec(),
+        })
+        .collect())
+}
+
+/// Where the writer gets a frame from (the shard stage reads label tables and image
+/// files). Called from several threads, once per frame, in increasing frame id order
+/// within a shard.
+pub trait FrameSource: Sync {
+    fn load(&self, frame_id: u64) -> Result<FrameRecord, Box<dyn std::error::Error + Send + Sync>>;
+}
+
+impl<F> FrameSource for F
+where
+    F: Fn(u64) -> Result<FrameRecord, Box<dyn std::error::Error + Send + Sync>> + Sync,
+{
+    fn load(&self, frame_id: u64) -> Result<FrameRecord, Box<dyn std::error::Error + Send + Sync>> {
+        self(frame_id)
+    }
+}
+
+/// What a run of the shard stage writes with; the same for every work unit of a run.
+#[derive(Clone, Debug)]
+pub struct ShardJob<'a> {
+    /// Folder of the shard files.
+    pub out_dir: &'a Path,
+    /// The whole run's plan ([`plan_shards`]).
+    pub plans: &'a [ShardPlan],
+    pub config: &'a ShardConfig,
+    /// Hash of the stage's configuration (e.g. `stage::hash_config`), recorded in the
+    /// manifest.
+    pub config_hash: String,
+    /// Input name -> content hash, recorded in the manifest.
+    pub inputs: BTreeMap<String, String>,
+}
+
+/// Writes shards `range` of the plan (one work unit), in parallel on the current
+/// rayon pool, each shard streamed from `source` frame by frame. Each file depends
+/// only on its frames and the config, so the bytes are the same for any thread
+/// count; the manifest lists the shards by index.
+pub fn write_shards(
+    job: &ShardJob<'_>,
+    range: Range<usize>,
+    source: &impl FrameSource,
+) -> Result<Manifest, ShardError> {
+    let count = job.plans.len();
+    let plans = job.plans.get(range.clone()).ok_or(ShardError::ShardRange {
+        start: range.start,
+        end: range.end,
+        count,
+    })?;
+    let frames_in_range: u64 = plans.iter().map(|p| p.frame_ids.len() as u64).sum();
+    let bar = stage::progress_bar(frames_in_range, "shard");
+    let infos: Vec<ShardInfo> = plans
+        .par_iter()
+        .map(|plan| {
+            let frames = plan.frame_ids.iter().map(|&id| {
+                let f = source.load(id).map_err(|source| ShardError::Source {
+                    frame_id: id,
+                    source,
+                })?;
+                if f.frame_id != id {
+                    return Err(ShardError::SourceMismatch {
+                        expected: id,
+                        got: f.frame_id,
+                    });
+                }
+                bar.inc(1);
+                Ok(f)
+            });
+            write_frames(&job.out_dir.join(&plan.file_name), frames, job.config)
+        })
+        .collect::<Result<_, _>>()?;
+    bar.finish_and_clear();
+    let shards = plans
+        .iter()
+        .zip(infos)
+        .map(|(plan, info)| ManifestShard {
+            index: plan.index,
+            file: plan.file_name.clone(),
+            first_frame: info.first_frame,
+            last_frame: info.last_frame,
+            frame_count: info.frame_count,
+            sha256: info.sha256,
+            bytes: info.bytes,
+        })
+        .collect();
+    Ok(Manifest {
+        format_version: SHARD_FORMAT_VERSION,
+        tool_version: env!("CARGO_PKG_VERSION").to_string(),
+        config_hash: job.config_hash.clone(),
+        inputs: job.inputs.clone(),
+        planned_shards: count,
+        planned_frames: job.plans.iter().map(|p| p.frame_ids.len() as u64).sum(),
+        shards,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn plans_consecutive_ranges() {
+        let ids: Vec<u64> = vec![2, 3, 5, 8, 13, 21, 34];
+        let plans = plan_shards(&ids, 3).unwrap();
+        let got: Vec<(usize, &str, &[u64])> = plans
+            .iter()
+            .map(|p| (p.index, p.file_name.as_str(), p.frame_ids.as_slice()))
+            .collect();
+        assert_eq!(
+            got,
+            vec![
+                (0, "shard-00000.mcap", &[2u64, 3, 5][..]),
+                (1, "shard-00001.mcap", &[8, 13, 21][..]),
+                (2, "shard-00002.mcap", &[34][..]),
+            ]
+        );
+        assert!(plan_shards(&[], 3).unwrap().is_empty());
+        assert!(matches!(
+            plan_shards(&ids, 0),
+            Err(ShardError::ZeroFramesPerShard)
+        ));
+        assert!(matches!(
+            plan_shards(&[1, 4, 4], 2),
+            Err(ShardError::FramesNotSorted {
+                previous: 4,
+                next: 4
+            })
+        ));
+    }
+}
