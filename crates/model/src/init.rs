@@ -1,0 +1,92 @@
+//! Seeded parameter initialisation on the host.
+//!
+//! Burn's own initialisers draw from a process-global backend RNG, so two models built in
+//! parallel (tests, a trainer and a validator) would interleave draws. Drawing on the host
+//! from a ChaCha stream owned by the builder makes a network a pure function of its seed,
+//! identical on every backend and thread count. The distributions are PyTorch's defaults for
+//! Linear / Conv1d(kernel 1) layers, U(-1/sqrt(fan_in), 1/sqrt(fan_in)) for weights and
+//! biases, as in the reference implementation.
+
+use burn::module::Param;
+use burn::nn::{LayerNorm, LayerNormConfig, Linear};
+use burn::tensor::{Tensor, TensorData, backend::Backend};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+/// LayerNorm epsilon of the line encoder (reference value).
+pub const LAYER_NORM_EPS: f64 = 1e-6;
+
+pub(crate) struct Initializer<'d, B: Backend> {
+    rng: ChaCha8Rng,
+    device: &'d B::Device,
+}
+
+impl<'d, B: Backend> Initializer<'d, B> {
+    pub fn new(seed: u64, device: &'d B::Device) -> Self {
+        Initializer {
+            rng: ChaCha8Rng::seed_from_u64(seed),
+            device,
+        }
+    }
+
+    fn uniform(&mut self, len: usize, bound: f32) -> Vec<f32> {
+        (0..len)
+            .map(|_| (self.rng.random::<f32>() * 2.0 - 1.0) * bound)
+            .collect()
+    }
+
+    /// A `d_in -> d_out` linear layer; burn stores the weight as `[d_in, d_out]`.
+    pub fn linear(&mut self, d_in: usize, d_out: usize) -> Linear<B> {
+        let bound = 1.0 / (d_in as f32).sqrt();
+        let weight = self.uniform(d_in * d_out, bound);
+        let bias = self.uniform(d_out, bound);
+        self.linear_from(d_in, d_out, weight, bias)
+    }
+
+    /// A linear layer whose bias starts at zero (last layer of a message MLP: a fresh
+    /// propagation layer then adds a zero-mean update).
+    pub fn linear_zero_bias(&mut self, d_in: usize, d_out: usize) -> Linear<B> {
+        let bound = 1.0 / (d_in as f32).sqrt();
+        let weight = self.uniform(d_in * d_out, bound);
+        // Draw (and discard) the bias anyway so that later layers get the same values
+        // whichever bias policy this layer has.
+        let _ = self.uniform(d_out, bound);
+        self.linear_from(d_in, d_out, weight, vec![0.0; d_out])
+    }
+
+    fn linear_from(
+        &self,
+        d_in: usize,
+        d_out: usize,
+        weight: Vec<f32>,
+        bias: Vec<f32>,
+    ) -> Linear<B> {
+        Linear {
+            weight: Param::from_data(TensorData::new(weight, [d_in, d_out]), self.device),
+            bias: Some(Param::from_data(
+                TensorData::new(bias, [d_out]),
+                self.device,
+            )),
+        }
+    }
+
+    pub fn layer_norm(&self, d: usize) -> LayerNorm<B> {
+        LayerNormConfig::new(d)
+            .with_epsilon(LAYER_NORM_EPS)
+            .init(self.device)
+    }
+
+    #[allow(dead_code)]
+    pub fn device(&self) -> &B::Device {
+        self.device
+    }
+}
+
+/// A float tensor from host values (shape must match `values.len()`).
+pub(crate) fn tensor_from<B: Backend, const K: usize>(
+    values: Vec<f32>,
+    shape: [usize; K],
+    device: &B::Device,
+) -> Tensor<B, K> {
+    Tensor::from_data(TensorData::new(values, shape), device)
+}

@@ -1,0 +1,367 @@
+//! The PL2Map network: line encoder -> attentional graph -> point and line heads.
+
+use crate::backend::Pl2MapBackend;
+use crate::config::ModelConfig;
+use crate::dropout::Dropout;
+use crate::error::ModelError;
+use crate::graph::GraphNetwork;
+use crate::heads::Mlp;
+use crate::init::{Initializer, tensor_from};
+use crate::line_encoder::LineEncoder;
+use burn::module::Module;
+use burn::tensor::{Tensor, backend::Backend};
+
+/// Output channels of the point head: x, y, z, u.
+pub const POINT_OUTPUTS: usize = 4;
+/// Output channels of the line head: start xyz, end xyz, u.
+pub const LINE_OUTPUTS: usize = 7;
+
+#[derive(Module, Debug)]
+pub struct Pl2Map<B: Backend> {
+    pub line_encoder: LineEncoder<B>,
+    pub graph: GraphNetwork<B>,
+    pub point_head: Mlp<B>,
+    pub line_head: Mlp<B>,
+    #[module(skip)]
+    pub config: ModelConfig,
+}
+
+/// Parameter counts of the four parts.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ParameterCounts {
+    pub line_encoder: usize,
+    pub graph: usize,
+    pub point_head: usize,
+    pub line_head: usize,
+}
+
+impl ParameterCounts {
+    pub fn total(&self) -> usize {
+        self.line_encoder + self.graph + self.point_head + self.line_head
+    }
+}
+
+impl ModelConfig {
+    /// Builds a network with weights drawn from `seed` (see `init.rs`): the same seed gives
+    /// the same weights on every backend.
+    pub fn init<B: Pl2MapBackend>(
+        &self,
+        seed: u64,
+        device: &B::Device,
+    ) -> Result<Pl2Map<B>, ModelError> {
+        self.validate()?;
+        let d = self.descriptor_dim;
+        let mut init = Initializer::<B>::new(seed, device);
+        let line_encoder = LineEncoder::new(&mut init, d, self.heads, self.ffn_dim);
+        let graph = GraphNetwork::new(&mut init, d, self.heads, &self.layers);
+        let widths = |out: usize| {
+            let mut w = vec![d];
+            w.extend_from_slice(&self.head_hidden);
+            w.push(out);
+            w
+        };
+        let point_head = Mlp::new(&mut init, &widths(POINT_OUTPUTS));
+        let line_head = Mlp::new(&mut init, &widths(LINE_OUTPUTS));
+        Ok(Pl2Map {
+            line_encoder,
+            graph,
+            point_head,
+            line_head,
+            config: self.clone(),
+        })
+    }
+}
+
+/// The descriptors of one image as tensors; `None` for an image without points or lines.
+#[derive(Clone, Debug)]
+pub struct NetworkInput<B: Backend> {
+    /// [N, D]
+    pub points: Option<Tensor<B, 2>>,
+    /// [M, T, D]
+    pub lines: Option<Tensor<B, 3>>,
+}
+
+impl<B: Backend> NetworkInput<B> {
+    /// From row-major host arrays: `points` holds N x D values, `lines` M x T x D.
+    pub fn from_host(
+        config: &ModelConfig,
+        points: &[f32],
+        lines: &[f32],
+        device: &B::Device,
+    ) -> Result<Self, ModelError> {
+        let d = config.descriptor_dim;
+        let t = config.line_tokens;
+        if !points.len().is_multiple_of(d) {
+            return Err(ModelError::Length {
+                field: "point_descriptors",
+                expected: points.len().div_ceil(d) * d,
+                found: points.len(),
+            });
+        }
+        if !lines.len().is_multiple_of(t * d) {
+            return Err(ModelError::Length {
+                field: "line_descriptors",
+                expected: lines.len().div_ceil(t * d) * t * d,
+                found: lines.len(),
+            });
+        }
+        let n = points.len() / d;
+        let m = lines.len() / (t * d);
+        Ok(NetworkInput {
+            points: (n > 0).then(|| tensor_from(points.to_vec(), [n, d], device)),
+            lines: (m > 0).then(|| tensor_from(lines.to_vec(), [m, t, d], device)),
+        })
+    }
+
+    pub fn num_points(&self) -> usize {
+        self.points.as_ref().map_or(0, |p| p.dims()[0])
+    }
+
+    pub fn num_lines(&self) -> usize {
+        self.lines.as_ref().map_or(0, |l| l.dims()[0])
+    }
+}
+
+/// Raw network outputs of one image.
+#[derive(Clone, Debug)]
+pub struct Prediction<B: Backend> {
+    /// [N, 4]: x, y, z, u.
+    pub points: Option<Tensor<B, 2>>,
+    /// [M, 7]: start xyz, end xyz, u.
+    pub lines: Option<Tensor<B, 2>>,
+    pub reliability_beta: f64,
+}
+
+/// r = 1 / (1 + |beta u|).
+pub fn reliability<B: Backend>(u: Tensor<B, 2>, beta: f64) -> Tensor<B, 2> {
+    u.abs().mul_scalar(beta).add_scalar(1.0).recip()
+}
+
+impl<B: Backend> Prediction<B> {
+    /// [N, 3] predicted world coordinates.
+    pub fn point_coordinates(&self) -> Option<Tensor<B, 2>> {
+        self.points.clone().map(|p| p.narrow(1, 0, 3))
+    }
+
+    /// [N, 1] reliabilities.
+    pub fn point_reliability(&self) -> Option<Tensor<B, 2>> {
+        let beta = self.reliability_beta;
+        self.points
+            .clone()
+            .map(|p| reliability(p.narrow(1, 3, 1), beta))
+    }
+
+    /// [M, 6] predicted endpoints (start xyz, end xyz).
+    pub fn line_endpoints(&self) -> Option<Tensor<B, 2>> {
+        self.lines.clone().map(|l| l.narrow(1, 0, 6))
+    }
+
+    /// [M, 1] reliabilities.
+    pub fn line_reliability(&self) -> Option<Tensor<B, 2>> {
+        let beta = self.reliability_beta;
+        self.lines
+            .clone()
+            .map(|l| reliability(l.narrow(1, 6, 1), beta))
+    }
+
+    /// Copies the outputs to the host.
+    pub fn to_host(&self) -> HostPrediction {
+        let rows = |t: &Option<Tensor<B, 2>>, width: usize| -> Vec<f32> {
+            match t {
+                Some(t) => {
+                    let data = t.to_data().convert::<f32>();
+                    let values = data.to_vec::<f32>().unwrap_or_default();
+                    debug_assert_eq!(values.len() % width, 0);
+                    values
+                }
+                None => Vec::new(),
+            }
+        };
+        let beta = self.reliability_beta as f32;
+        let r = |u: f32| 1.0 / (1.0 + (beta * u).abs());
+        let points = rows(&self.points, POINT_OUTPUTS)
+            .chunks_exact(POINT_OUTPUTS)
+            .map(|c| PointPrediction {
+                xyz: [c[0], c[1], c[2]],
+                reliability: r(c[3]),
+            })
+            .collect();
+        let lines = rows(&self.lines, LINE_OUTPUTS)
+            .chunks_exact(LINE_OUTPUTS)
+            .map(|c| LinePrediction {
+                start: [c[0], c[1], c[2]],
+                end: [c[3], c[4], c[5]],
+                reliability: r(c[6]),
+            })
+            .collect();
+        HostPrediction { points, lines }
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PointPrediction {
+    pub xyz: [f32; 3],
+    pub reliability: f32,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LinePrediction {
+    pub start: [f32; 3],
+    pub end: [f32; 3],
+    pub reliability: f32,
+}
+
+/// Predictions of one image on the host, in input order.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct HostPrediction {
+    pub points: Vec<PointPrediction>,
+    pub lines: Vec<LinePrediction>,
+}
+
+impl<B: Pl2MapBackend> Pl2Map<B> {
+    pub fn parameter_counts(&self) -> ParameterCounts {
+        ParameterCounts {
+            line_encoder: self.line_encoder.num_params(),
+            graph: self.graph.num_params(),
+            point_head: self.point_head.num_params(),
+            line_head: self.line_head.num_params(),
+        }
+    }
+
+    /// Runs the network on one image. `dropout` is `Dropout::off()` for evaluation.
+    /// An image without lines (or without points) runs the other stream alone; cross
+    /// layers then pass it the message of an empty edge set.
+    pub fn forward(&self, input: NetworkInput<B>, dropout: &mut Dropout) -> Prediction<B> {
+        let n = input.num_points();
+        let m = input.num_lines();
+        let lines = input.lines.map(|l| self.line_encoder.forward(l, dropout));
+        let x = match (input.points, lines) {
+            (Some(p), Some(l)) => Some(Tensor::cat(vec![p, l], 0)),
+            (Some(p), None) => Some(p),
+            (None, Some(l)) => Some(l),
+            (None, None) => None,
+        };
+        let beta = self.config.reliability_beta;
+        let Some(x) = x else {
+            return Prediction {
+                points: None,
+                lines: None,
+                reliability_beta: beta,
+            };
+        };
+        let x = self.graph.forward(x, n, m);
+        let points = (n > 0).then(|| self.point_head.forward(x.clone().narrow(0, 0, n)));
+        let lines = (m > 0).then(|| self.line_head.forward(x.narrow(0, n, m)));
+        Prediction {
+            points,
+            lines,
+            reliability_beta: beta,
+        }
+    }
+
+    /// Evaluation-mode forward pass on host descriptors, results on the host.
+    pub fn predict(
+        &self,
+        point_descriptors: &[f32],
+        line_descriptors: &[f32],
+    ) -> Result<HostPrediction, ModelError> {
+        let device = self.devices().into_iter().next();
+        let Some(device) = device else {
+            return Err(ModelError::InvalidConfig(
+                "network has no parameters".into(),
+            ));
+        };
+        let input =
+            NetworkInput::from_host(&self.config, point_descriptors, line_descriptors, &device)?;
+        Ok(self.forward(input, &mut Dropout::off()).to_host())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::testutil::{B, tiny_config, tiny_sample, values};
+
+    #[test]
+    fn reference_parameter_count_at_d256() {
+        let net = ModelConfig::superpoint()
+            .init::<B>(0, &Default::default())
+            .unwrap();
+        let c = net.parameter_counts();
+        assert_eq!(c.line_encoder, 789_760);
+        assert_eq!(c.graph, 3_285_760);
+        assert_eq!(c.point_head, 1_183_748);
+        assert_eq!(c.line_head, 1_185_287);
+        assert_eq!(c.total(), 6_444_555);
+        assert_eq!(net.num_params(), 6_444_555);
+    }
+
+    #[test]
+    fn weights_are_a_function_of_the_seed() {
+        let cfg = tiny_config();
+        let d = Default::default();
+        let w = |seed| {
+            values(
+                &cfg.init::<B>(seed, &d).unwrap().point_head.layers[0]
+                    .weight
+                    .val(),
+            )
+        };
+        assert_eq!(w(1), w(1));
+        assert_ne!(w(1), w(2));
+        // PyTorch's default bound 1 / sqrt(fan_in).
+        let bound = 1.0 / (cfg.descriptor_dim as f32).sqrt();
+        assert!(w(1).iter().all(|x| x.abs() <= bound));
+    }
+
+    #[test]
+    fn output_shapes_and_empty_streams() {
+        let cfg = tiny_config();
+        let net = cfg.init::<B>(1, &Default::default()).unwrap();
+        for (n, m) in [(5, 3), (5, 0), (0, 3), (0, 0)] {
+            let s = tiny_sample(&cfg, n, m);
+            let p = net
+                .predict(&s.point_descriptors, &s.line_descriptors)
+                .unwrap();
+            assert_eq!((p.points.len(), p.lines.len()), (n, m));
+            for x in &p.points {
+                assert!(x.xyz.iter().all(|v| v.is_finite()));
+                assert!(x.reliability > 0.0 && x.reliability <= 1.0);
+            }
+            for x in &p.lines {
+                assert!(x.start.iter().chain(&x.end).all(|v| v.is_finite()));
+            }
+        }
+    }
+
+    #[test]
+    fn points_do_not_depend_on_line_order() {
+        // Attention is permutation-invariant over its sources: shuffling the lines leaves
+        // the point predictions unchanged and permutes the line predictions.
+        let cfg = tiny_config();
+        let net = cfg.init::<B>(1, &Default::default()).unwrap();
+        let s = tiny_sample(&cfg, 4, 3);
+        let block = cfg.line_tokens * cfg.descriptor_dim;
+        let mut swapped = s.line_descriptors.clone();
+        swapped[..block].copy_from_slice(&s.line_descriptors[2 * block..]);
+        swapped[2 * block..].copy_from_slice(&s.line_descriptors[..block]);
+        let a = net
+            .predict(&s.point_descriptors, &s.line_descriptors)
+            .unwrap();
+        let b = net.predict(&s.point_descriptors, &swapped).unwrap();
+        for (x, y) in a.points.iter().zip(&b.points) {
+            for k in 0..3 {
+                assert!((x.xyz[k] - y.xyz[k]).abs() < 1e-5);
+            }
+        }
+        assert!((a.lines[0].start[0] - b.lines[2].start[0]).abs() < 1e-5);
+    }
+
+    #[test]
+    fn rejects_descriptors_of_the_wrong_size() {
+        let cfg = tiny_config();
+        let net = cfg.init::<B>(1, &Default::default()).unwrap();
+        let err = net.predict(&[0.0; 7], &[]).unwrap_err();
+        assert!(err.to_string().contains("point_descriptors"), "{err}");
+    }
+}

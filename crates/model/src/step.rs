@@ -1,0 +1,287 @@
+//! One training step: forward, loss, backward, Adam.
+
+use crate::backend::Pl2MapBackend;
+use crate::config::ModelConfig;
+use crate::dropout::Dropout;
+use crate::error::ModelError;
+use crate::loss::{LossConfig, LossValues, compute_loss};
+use crate::network::Pl2Map;
+use crate::sample::Sample;
+use burn::module::{AutodiffModule, Module};
+use burn::optim::adaptor::OptimizerAdaptor;
+use burn::optim::{Adam, AdamConfig, GradientsParams, Optimizer};
+use burn::tensor::backend::AutodiffBackend;
+
+/// Adam as the reference runs it (PyTorch defaults: betas 0.9 / 0.999, eps 1e-8, no weight
+/// decay). Burn's own default epsilon is 1e-5.
+pub fn adam_config() -> AdamConfig {
+    AdamConfig::new()
+        .with_beta_1(0.9)
+        .with_beta_2(0.999)
+        .with_epsilon(1e-8)
+}
+
+pub type Pl2MapOptimizer<B> = OptimizerAdaptor<Adam, Pl2Map<B>, B>;
+
+/// Per-step inputs that the trainer's schedule decides.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StepOptions {
+    /// Training progress t in [0, 1] (iteration / total iterations): drives tau(t) and the
+    /// start of the reprojection term.
+    pub progress: f64,
+    pub learning_rate: f64,
+    /// Seed of this step's dropout masks (the trainer derives it from its seed and the
+    /// iteration, so a resumed run replays the same masks).
+    pub dropout_seed: u64,
+}
+
+/// What a step did.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StepReport {
+    pub losses: LossValues,
+    /// False when the image held nothing to learn from (no points and no lines): the
+    /// weights and the optimiser state were left alone.
+    pub updated: bool,
+}
+
+/// A network, its optimiser and its loss configuration.
+pub struct TrainState<B: AutodiffBackend + Pl2MapBackend> {
+    // Option so that a step can move the network through the optimiser (burn's
+    // optimisers take and return it by value); always Some between steps.
+    model: Option<Pl2Map<B>>,
+    pub optimizer: Pl2MapOptimizer<B>,
+    pub loss: LossConfig,
+}
+
+impl<B: AutodiffBackend + Pl2MapBackend> TrainState<B> {
+    pub fn new(model: Pl2Map<B>, loss: LossConfig) -> Result<Self, ModelError> {
+        loss.validate()?;
+        Ok(TrainState {
+            model: Some(model),
+            optimizer: adam_config().init(),
+            loss,
+        })
+    }
+
+    /// A fresh network from `config` and `seed`.
+    pub fn init(
+        config: &ModelConfig,
+        loss: LossConfig,
+        seed: u64,
+        device: &B::Device,
+    ) -> Result<Self, ModelError> {
+        Self::new(config.init(seed, device)?, loss)
+    }
+
+    pub fn model(&self) -> &Pl2Map<B> {
+        self.model
+            .as_ref()
+            .expect("TrainState holds a model between steps")
+    }
+
+    /// The network without autodiff, for evaluation.
+    pub fn inference_model(&self) -> Pl2Map<B::InnerBackend> {
+        self.model().valid()
+    }
+
+    /// Resumes from a network and an optimiser restored from a checkpoint.
+    pub fn from_parts(
+        model: Pl2Map<B>,
+        optimizer: Pl2MapOptimizer<B>,
+        loss: LossConfig,
+    ) -> Result<Self, ModelError> {
+        loss.validate()?;
+        Ok(TrainState {
+            model: Some(model),
+            optimizer,
+            loss,
+        })
+    }
+
+    pub fn into_parts(self) -> (Pl2Map<B>, Pl2MapOptimizer<B>) {
+        let model = self.model.expect("TrainState holds a model between steps");
+        (model, self.optimizer)
+    }
+
+    /// Forward + loss + backward + Adam step on one image.
+    pub fn step(
+        &mut self,
+        sample: &Sample,
+        options: &StepOptions,
+    ) -> Result<StepReport, ModelError> {
+        let model = self.model();
+        let device = model
+            .devices()
+            .into_iter()
+            .next()
+            .ok_or_else(|| ModelError::InvalidConfig("network has no parameters".into()))?;
+        let tensors = sample.to_tensors::<B>(&model.config, &device)?;
+        let mut dropout = Dropout::seeded(model.config.dropout, options.dropout_seed);
+        let prediction = model.forward(tensors.input, &mut dropout);
+        let terms = compute_loss(&prediction, &tensors.targets, &self.loss, options.progress);
+        let losses = terms.values();
+        if !terms.has_gradient {
+            return Ok(StepReport {
+                losses,
+                updated: false,
+            });
+        }
+        let model = self
+            .model
+            .take()
+            .expect("TrainState holds a model between steps");
+        let grads = GradientsParams::from_grads(terms.total.backward(), &model);
+        self.model = Some(self.optimizer.step(options.learning_rate, model, grads));
+        Ok(StepReport {
+            losses,
+            updated: true,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::testutil::{AD, tiny_config, tiny_sample};
+
+    fn options(i: usize, progress: f64) -> StepOptions {
+        StepOptions {
+            progress,
+            learning_rate: 3e-3,
+            dropout_seed: i as u64,
+        }
+    }
+
+    #[test]
+    fn adam_lowers_the_loss_on_a_tiny_problem() {
+        let cfg = ModelConfig {
+            dropout: 0.0,
+            ..tiny_config()
+        };
+        let sample = tiny_sample(&cfg, 12, 4);
+        let mut state =
+            TrainState::<AD>::init(&cfg, LossConfig::indoor(), 5, &Default::default()).unwrap();
+        // progress 0.9: every term, the reprojection one included, is on. At first the
+        // predictions sit near the camera centre (depth < 0.1 m), so L_pi only joins in
+        // once the points have moved in front of the camera.
+        let first = state.step(&sample, &options(0, 0.9)).unwrap();
+        assert!(first.updated);
+        assert!(first.losses.reprojection_active);
+        let mut history = vec![first.losses];
+        for i in 1..60 {
+            let r = state.step(&sample, &options(i, 0.9)).unwrap();
+            assert!(r.losses.total.is_finite());
+            history.push(r.losses);
+        }
+        let last = history[history.len() - 1];
+        let l = &first.losses;
+        assert!(last.map_points < 0.5 * l.map_points, "{l:?} -> {last:?}");
+        assert!(last.map_lines < 0.5 * l.map_lines, "{l:?} -> {last:?}");
+        assert!(
+            last.reliability_points + last.reliability_lines
+                < l.reliability_points + l.reliability_lines
+        );
+        let joined = history
+            .iter()
+            .position(|v| v.reprojection_valid_points == v.reprojection_candidates_points)
+            .expect("every labelled point ends up in front of the camera");
+        assert!(
+            last.reprojection_points < history[joined].reprojection_points,
+            "{:?} -> {last:?}",
+            history[joined]
+        );
+        assert!(last.total < history[joined].total);
+    }
+
+    #[test]
+    fn steps_are_deterministic() {
+        let cfg = tiny_config();
+        let sample = tiny_sample(&cfg, 6, 3);
+        let run = || {
+            let mut s =
+                TrainState::<AD>::init(&cfg, LossConfig::indoor(), 9, &Default::default()).unwrap();
+            let mut out = Vec::new();
+            for i in 0..3 {
+                out.push(s.step(&sample, &options(i, 0.85)).unwrap().losses.total);
+            }
+            let p = s
+                .inference_model()
+                .predict(&sample.point_descriptors, &sample.line_descriptors);
+            (out, p.unwrap())
+        };
+        assert_eq!(run(), run());
+    }
+
+    #[test]
+    fn steps_do_not_depend_on_the_thread_count() {
+        // Large enough that burn-flex runs its matrix products on several threads.
+        let cfg = ModelConfig {
+            descriptor_dim: 64,
+            head_hidden: vec![512],
+            ..tiny_config()
+        };
+        let sample = tiny_sample(&cfg, 256, 16);
+        let run = |threads: usize| {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            pool.install(|| {
+                let mut s =
+                    TrainState::<AD>::init(&cfg, LossConfig::indoor(), 3, &Default::default())
+                        .unwrap();
+                for i in 0..2 {
+                    s.step(&sample, &options(i, 0.9)).unwrap();
+                }
+                s.inference_model()
+                    .predict(&sample.point_descriptors, &sample.line_descriptors)
+                    .unwrap()
+            })
+        };
+        let one = run(1);
+        assert_eq!(one, run(2));
+        assert_eq!(one, run(3));
+    }
+
+    #[test]
+    fn images_without_lines_or_points() {
+        let cfg = tiny_config();
+        let mut state =
+            TrainState::<AD>::init(&cfg, LossConfig::indoor(), 1, &Default::default()).unwrap();
+        for (n, m, updated) in [(5, 0, true), (0, 3, true), (0, 0, false)] {
+            let r = state
+                .step(&tiny_sample(&cfg, n, m), &options(0, 0.9))
+                .unwrap();
+            assert_eq!(r.updated, updated, "n = {n}, m = {m}");
+            assert!(r.losses.total.is_finite());
+        }
+    }
+
+    #[test]
+    fn bad_samples_are_errors() {
+        let cfg = tiny_config();
+        let mut state =
+            TrainState::<AD>::init(&cfg, LossConfig::indoor(), 1, &Default::default()).unwrap();
+        let mut s = tiny_sample(&cfg, 4, 2);
+        s.point_valid.pop();
+        let e = state.step(&s, &options(0, 0.0)).unwrap_err().to_string();
+        assert!(e.contains("point_valid"), "{e}");
+        let mut s = tiny_sample(&cfg, 4, 2);
+        s.line_descriptors[cfg.line_tokens * cfg.descriptor_dim + 3] = f32::NAN;
+        let e = state.step(&s, &options(0, 0.0)).unwrap_err().to_string();
+        assert!(
+            e.contains("line_descriptors") && e.contains("element 1"),
+            "{e}"
+        );
+        let mut s = tiny_sample(&cfg, 4, 2);
+        s.point_labels[0][1] = f32::INFINITY;
+        let e = state.step(&s, &options(0, 0.0)).unwrap_err().to_string();
+        assert!(e.contains("point_labels") && e.contains("element 0"), "{e}");
+        let mut s = tiny_sample(&cfg, 4, 2);
+        s.rotation[0][0] = 2.0;
+        assert!(state.step(&s, &options(0, 0.0)).is_err());
+        let mut s = tiny_sample(&cfg, 4, 2);
+        s.camera.fx = 0.0;
+        assert!(state.step(&s, &options(0, 0.0)).is_err());
+    }
+}
