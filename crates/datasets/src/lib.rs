@@ -1,1 +1,7 @@
-//! placeholder: filled by its issue
+//! Datasets of pl2map-rs: the procedural synthetic room ([`synth`]) that serves as the
+//! embedded default data of the demo and the tests, written in the 7-Scenes or the
+//! Cambridge Landmarks layout.
+
+pub mod frames;
+pub mod ingest;
+pub mod synth;

@@ -1,0 +1,576 @@
+//! The frames table: one row per image of a dataset, as the ingest stage writes it and
+//! every later stage reads it (DESIGN.md "Data flow").
+//!
+//! Stored as parquet through polars. Columns, in order:
+//!
+//! | column | type | meaning |
+//! |---|---|---|
+//! | `id` | u32 | frame id: rows sorted by split (train, then test), then by name (byte order) |
+//! | `name` | str | dataset-relative path with `/` separators, the join key with SfM models |
+//! | `path` | str | absolute path of the image file |
+//! | `split` | str | `train` or `test` |
+//! | `camera_model` | str | COLMAP model name, e.g. `SIMPLE_PINHOLE` |
+//! | `width`, `height` | u32 | image size in pixels |
+//! | `camera_params` | list[f64] | COLMAP parameters of that model, in COLMAP order |
+//! | `qw` `qx` `qy` `qz` `tx` `ty` `tz` | f64 | world-to-camera pose, Hamilton quaternion w-first |
+//! | `depth_path` | str, nullable | absolute path of the depth map aligned with the image |
+//! | `content_hash` | str | sha256 (hex) of the image file |
+//!
+//! The [`IngestMeta`] (dataset, scene, pose and depth source, excluded frames) is stored
+//! as JSON in the parquet file's key-value metadata under [`META_KEY`], not in a sidecar:
+//! it is then written in the same atomic rename as the rows it describes and can never
+//! drift from them, and any parquet reader shows it (pyarrow: `read_metadata(f).metadata`).
+
+use geometry::{Camera, CameraModel, Pose, UnitQuaternion, Vector3};
+use nalgebra::Quaternion;
+use polars::prelude::*;
+use serde::{Deserialize, Serialize};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use thiserror::Error;
+
+/// Key of the JSON-encoded [`IngestMeta`] in the parquet key-value metadata.
+pub const META_KEY: &str = "pl2map.frames.meta";
+/// Key of the table layout version; a reader refuses other versions.
+pub const VERSION_KEY: &str = "pl2map.frames.version";
+pub const TABLE_VERSION: &str = "1";
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Split {
+    Train,
+    Test,
+}
+
+impl Split {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Split::Train => "train",
+            Split::Test => "test",
+        }
+    }
+
+    pub fn parse(s: &str) -> Option<Split> {
+        match s {
+            "train" => Some(Split::Train),
+            "test" => Some(Split::Test),
+            _ => None,
+        }
+    }
+}
+
+impl std::fmt::Display for Split {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
+/// One image of a dataset.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Frame {
+    pub id: u32,
+    /// Dataset-relative path with `/` separators (`seq-01/frame-000000.color.png`,
+    /// `seq1/frame00001.png`): the name SfM models use for this image.
+    pub name: String,
+    /// Absolute path of the image file.
+    pub path: PathBuf,
+    pub split: Split,
+    pub camera: Camera,
+    /// World-to-camera.
+    pub pose: Pose,
+    /// Absolute path of a depth map in this image's camera (16-bit, millimetres).
+    pub depth_path: Option<PathBuf>,
+    pub width: u32,
+    pub height: u32,
+    /// sha256 (hex) of the image file.
+    pub content_hash: String,
+}
+
+/// A frame listed by the dataset but left out of the table, and why.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct ExcludedFrame {
+    pub name: String,
+    pub split: Split,
+    pub reason: String,
+}
+
+/// What the table was made from; stored with it.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct IngestMeta {
+    /// `7scenes`, `cambridge`, ...
+    pub dataset: String,
+    pub scene: String,
+    /// Absolute path of the scene folder that was read.
+    pub root: String,
+    /// Where the poses come from and what they are, e.g. `published: pose.txt ...`.
+    pub pose_source: String,
+    /// `none`, `raw: ...` or `rendered: DIR ...`.
+    pub depth_source: String,
+    /// Depth values per metre in every depth map of the table (1000: millimetres); None
+    /// without depth. 0 and 65535 are invalid in every depth map the table points to.
+    pub depth_units_per_metre: Option<f64>,
+    /// How the cameras were obtained, e.g. `SIMPLE_PINHOLE 640 480 525 320 240 (default)`.
+    pub intrinsics: String,
+    pub excluded: Vec<ExcludedFrame>,
+}
+
+/// Rows and their description.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FramesTable {
+    pub frames: Vec<Frame>,
+    pub meta: IngestMeta,
+}
+
+#[derive(Debug, Error)]
+pub enum FramesError {
+    #[error("{path}: {source}")]
+    Io {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("{path}: parquet: {source}")]
+    Polars {
+        path: PathBuf,
+        #[source]
+        source: PolarsError,
+    },
+    #[error("{path}: {message}")]
+    Invalid { path: PathBuf, message: String },
+    #[error("{path}: row {row} ({column}): {message}")]
+    Row {
+        path: PathBuf,
+        row: usize,
+        column: &'static str,
+        message: String,
+    },
+    #[error(transparent)]
+    Stage(#[from] stage::StageError),
+}
+
+/// The table stores normalised quaternions: anything further from unit norm was not
+/// written by [`FramesTable::write_parquet`].
+const UNIT_QUATERNION_TOLERANCE: f64 = 1e-9;
+
+const POSE_COLUMNS: [&str; 7] = ["qw", "qx", "qy", "qz", "tx", "ty", "tz"];
+
+fn path_str<'a>(p: &'a Path, file: &Path, row: usize) -> Result<&'a str, FramesError> {
+    p.to_str().ok_or_else(|| FramesError::Row {
+        path: file.to_path_buf(),
+        row,
+        column: "path",
+        message: format!("path {} is not valid UTF-8", p.display()),
+    })
+}
+
+impl FramesTable {
+    /// Number of frames of a split.
+    pub fn count(&self, split: Split) -> usize {
+        self.frames.iter().filter(|f| f.split == split).count()
+    }
+
+    /// The table as a polars DataFrame (columns as in the module docs).
+    pub fn to_dataframe(&self, file_for_errors: &Path) -> Result<DataFrame, FramesError> {
+        let n = self.frames.len();
+        let f = &self.frames;
+        let polars_err = |source| FramesError::Polars {
+            path: file_for_errors.to_path_buf(),
+            source,
+        };
+        let mut paths = Vec::with_capacity(n);
+        let mut depths = Vec::with_capacity(n);
+        for (row, fr) in f.iter().enumerate() {
+            paths.push(path_str(&fr.path, file_for_errors, row)?.to_string());
+            depths.push(match &fr.depth_path {
+                Some(p) => Some(path_str(p, file_for_errors, row)?.to_string()),
+                None => None,
+            });
+        }
+        let params: ListChunked = f
+            .iter()
+            .map(|fr| Some(Series::new(PlSmallStr::EMPTY, fr.camera.params.as_slice())))
+            .collect();
+        let mut columns = vec![
+            Column::new("id".into(), f.iter().map(|x| x.id).collect::<Vec<u32>>()),
+            Column::new(
+                "name".into(),
+                f.iter().map(|x| x.name.as_str()).collect::<Vec<&str>>(),
+            ),
+            Column::new("path".into(), paths),
+            Column::new(
+                "split".into(),
+                f.iter().map(|x| x.split.as_str()).collect::<Vec<&str>>(),
+            ),
+            Column::new(
+                "camera_model".into(),
+                f.iter()
+                    .map(|x| x.camera.model.name())
+                    .collect::<Vec<&str>>(),
+            ),
+            Column::new(
+                "width".into(),
+                f.iter().map(|x| x.width).collect::<Vec<u32>>(),
+            ),
+            Column::new(
+                "height".into(),
+                f.iter().map(|x| x.height).collect::<Vec<u32>>(),
+            ),
+            params
+                .into_series()
+                .with_name("camera_params".into())
+                .into_column(),
+        ];
+        for (k, name) in POSE_COLUMNS.iter().enumerate() {
+            let values: Vec<f64> = f
+                .iter()
+                .map(|x| {
+                    if k < 4 {
+                        x.pose.qvec()[k]
+                    } else {
+                        x.pose.tvec()[k - 4]
+                    }
+                })
+                .collect();
+            columns.push(Column::new((*name).into(), values));
+        }
+        columns.push(Column::new("depth_path".into(), depths));
+        columns.push(Column::new(
+            "content_hash".into(),
+            f.iter()
+                .map(|x| x.content_hash.as_str())
+                .collect::<Vec<&str>>(),
+        ));
+        DataFrame::new(n, columns).map_err(polars_err)
+    }
+
+    /// Writes the table to `path` atomically (temp file in the same folder, fsync,
+    /// rename). Same table => same bytes.
+    pub fn write_parquet(&self, path: &Path) -> Result<(), FramesError> {
+        let mut df = self.to_dataframe(path)?;
+        let meta = serde_json::to_string(&self.meta).map_err(|e| FramesError::Invalid {
+            path: path.to_path_buf(),
+            message: format!("cannot encode the table metadata: {e}"),
+        })?;
+        let kv = KeyValueMetadata::from_static(vec![
+            (VERSION_KEY.to_string(), TABLE_VERSION.to_string()),
+            (META_KEY.to_string(), meta),
+        ]);
+        let mut out = stage::AtomicFile::create(path)?;
+        ParquetWriter::new(out.file())
+            .with_compression(ParquetCompression::Zstd(None))
+            .with_key_value_metadata(Some(kv))
+            .finish(&mut df)
+            .map_err(|source| FramesError::Polars {
+                path: path.to_path_buf(),
+                source,
+            })?;
+        out.flush().map_err(|source| FramesError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        out.commit()?;
+        Ok(())
+    }
+
+    /// Reads a table written by [`FramesTable::write_parquet`], checking every value.
+    pub fn read_parquet(path: &Path) -> Result<FramesTable, FramesError> {
+        let file = std::fs::File::open(path).map_err(|source| FramesError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        let polars_err = |source| FramesError::Polars {
+            path: path.to_path_buf(),
+            source,
+        };
+        let invalid = |message: String| FramesError::Invalid {
+            path: path.to_path_buf(),
+            message,
+        };
+        let mut reader = ParquetReader::new(file);
+        let kv = reader
+            .get_metadata()
+            .map_err(polars_err)?
+            .key_value_metadata()
+            .clone()
+            .unwrap_or_default();
+        let lookup = |key: &str| {
+            kv.iter()
+                .find(|e| e.key == key)
+                .and_then(|e| e.value.clone())
+        };
+        match lookup(VERSION_KEY) {
+            Some(v) if v == TABLE_VERSION => {}
+            Some(v) => {
+                return Err(invalid(format!(
+                    "frames table version {v}, this reader knows version {TABLE_VERSION}"
+                )));
+            }
+            None => {
+                return Err(invalid(format!(
+                    "no {VERSION_KEY} key in the parquet metadata: not a frames table"
+                )));
+            }
+        }
+        let meta_json = lookup(META_KEY)
+            .ok_or_else(|| invalid(format!("no {META_KEY} key in the parquet metadata")))?;
+        let meta: IngestMeta = serde_json::from_str(&meta_json)
+            .map_err(|e| invalid(format!("{META_KEY} is not valid: {e}")))?;
+        let df = reader.finish().map_err(polars_err)?;
+        let frames = frames_from_dataframe(&df, path)?;
+        Ok(FramesTable { frames, meta })
+    }
+}
+
+/// Column accessors that turn a wrong type or a null into an error naming the column.
+struct Cols<'a> {
+    df: &'a DataFrame,
+    path: &'a Path,
+}
+
+impl<'a> Cols<'a> {
+    fn col(&self, name: &'static str) -> Result<&'a Column, FramesError> {
+        self.df.column(name).map_err(|_| FramesError::Invalid {
+            path: self.path.to_path_buf(),
+            message: format!("missing column {name}"),
+        })
+    }
+
+    fn wrong_type(&self, name: &'static str, e: PolarsError) -> FramesError {
+        FramesError::Invalid {
+            path: self.path.to_path_buf(),
+            message: format!("column {name}: {e}"),
+        }
+    }
+
+    fn null(&self, row: usize, column: &'static str) -> FramesError {
+        FramesError::Row {
+            path: self.path.to_path_buf(),
+            row,
+            column,
+            message: "null value".into(),
+        }
+    }
+
+    fn u32s(&self, name: &'static str) -> Result<Vec<u32>, FramesError> {
+        let ca = self
+            .col(name)?
+            .u32()
+            .map_err(|e| self.wrong_type(name, e))?;
+        ca.iter()
+            .enumerate()
+            .map(|(row, v)| v.ok_or_else(|| self.null(row, name)))
+            .collect()
+    }
+
+    fn f64s(&self, name: &'static str) -> Result<Vec<f64>, FramesError> {
+        let ca = self
+            .col(name)?
+            .f64()
+            .map_err(|e| self.wrong_type(name, e))?;
+        ca.iter()
+            .enumerate()
+            .map(|(row, v)| v.ok_or_else(|| self.null(row, name)))
+            .collect()
+    }
+
+    fn strs(&self, name: &'static str) -> Result<Vec<Option<String>>, FramesError> {
+        let ca = self
+            .col(name)?
+            .str()
+            .map_err(|e| self.wrong_type(name, e))?;
+        Ok(ca.iter().map(|v| v.map(str::to_string)).collect())
+    }
+
+    fn required_strs(&self, name: &'static str) -> Result<Vec<String>, FramesError> {
+        self.strs(name)?
+            .into_iter()
+            .enumerate()
+            .map(|(row, v)| v.ok_or_else(|| self.null(row, name)))
+            .collect()
+    }
+
+    fn params(&self) -> Result<Vec<Vec<f64>>, FramesError> {
+        const NAME: &str = "camera_params";
+        let ca = self
+            .col(NAME)?
+            .list()
+            .map_err(|e| self.wrong_type(NAME, e))?;
+        let mut out = Vec::with_capacity(ca.len());
+        for (row, s) in ca.amortized_iter().enumerate() {
+            let s = s.ok_or_else(|| self.null(row, NAME))?;
+            let values = s.as_ref().f64().map_err(|e| self.wrong_type(NAME, e))?;
+            let v: Option<Vec<f64>> = values.iter().collect();
+            out.push(v.ok_or_else(|| self.null(row, NAME))?);
+        }
+        Ok(out)
+    }
+}
+
+fn frames_from_dataframe(df: &DataFrame, path: &Path) -> Result<Vec<Frame>, FramesError> {
+    let c = Cols { df, path };
+    let ids = c.u32s("id")?;
+    let names = c.required_strs("name")?;
+    let paths = c.required_strs("path")?;
+    let splits = c.required_strs("split")?;
+    let models = c.required_strs("camera_model")?;
+    let widths = c.u32s("width")?;
+    let heights = c.u32s("height")?;
+    let params = c.params()?;
+    let mut pose_cols = Vec::with_capacity(7);
+    for name in POSE_COLUMNS {
+        pose_cols.push(c.f64s(name)?);
+    }
+    let depths = c.strs("depth_path")?;
+    let hashes = c.required_strs("content_hash")?;
+
+    let row_err = |row: usize, column: &'static str, message: String| FramesError::Row {
+        path: path.to_path_buf(),
+        row,
+        column,
+        message,
+    };
+    let mut frames = Vec::with_capacity(ids.len());
+    for row in 0..ids.len() {
+        if row > 0 && ids[row] <= ids[row - 1] {
+            return Err(row_err(
+                row,
+                "id",
+                format!(
+                    "ids must be strictly increasing, got {} after {}",
+                    ids[row],
+                    ids[row - 1]
+                ),
+            ));
+        }
+        let split = Split::parse(&splits[row]).ok_or_else(|| {
+            row_err(
+                row,
+                "split",
+                format!("expected train or test, got {:?}", splits[row]),
+            )
+        })?;
+        let model = CameraModel::from_name(&models[row])
+            .map_err(|e| row_err(row, "camera_model", e.to_string()))?;
+        let camera = Camera::new(
+            model,
+            widths[row] as u64,
+            heights[row] as u64,
+            params[row].clone(),
+        )
+        .map_err(|e| row_err(row, "camera_params", e.to_string()))?;
+        let p: Vec<f64> = pose_cols.iter().map(|col| col[row]).collect();
+        let (q, t) = ([p[0], p[1], p[2], p[3]], [p[4], p[5], p[6]]);
+        // Validated, but not renormalised: the stored unit quaternion comes back with
+        // the same bits.
+        Pose::from_qvec_tvec_tol(q, t, UNIT_QUATERNION_TOLERANCE)
+            .map_err(|e| row_err(row, "qw", e.to_string()))?;
+        let pose = Pose::new(
+            UnitQuaternion::new_unchecked(Quaternion::new(q[0], q[1], q[2], q[3])),
+            Vector3::from(t),
+        );
+        frames.push(Frame {
+            id: ids[row],
+            name: names[row].clone(),
+            path: PathBuf::from(&paths[row]),
+            split,
+            camera,
+            pose,
+            depth_path: depths[row].as_ref().map(PathBuf::from),
+            width: widths[row],
+            height: heights[row],
+            content_hash: hashes[row].clone(),
+        });
+    }
+    Ok(frames)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn table() -> FramesTable {
+        let frames = (0..5u32)
+            .map(|i| {
+                let x = i as f64;
+                Frame {
+                    id: i,
+                    name: format!("seq-01/frame-{i:06}.color.png"),
+                    path: PathBuf::from(format!("/data/stairs/seq-01/frame-{i:06}.color.png")),
+                    split: if i < 3 { Split::Train } else { Split::Test },
+                    camera: Camera::new(
+                        CameraModel::SimpleRadial,
+                        640,
+                        480,
+                        vec![525.0 + x / 3.0, 320.1, 239.9, -1e-3 * x],
+                    )
+                    .unwrap(),
+                    pose: Pose::new(
+                        UnitQuaternion::from_euler_angles(0.1 * x, -0.7, 1.0 / 3.0),
+                        Vector3::new(std::f64::consts::PI * x, -1e-300, 1.0 / 7.0),
+                    ),
+                    depth_path: (i % 2 == 0).then(|| PathBuf::from(format!("/d/{i}.png"))),
+                    width: 640,
+                    height: 480,
+                    content_hash: format!("{i:064x}"),
+                }
+            })
+            .collect();
+        FramesTable {
+            frames,
+            meta: IngestMeta {
+                dataset: "7scenes".into(),
+                scene: "stairs".into(),
+                root: "/data/stairs".into(),
+                pose_source: "published".into(),
+                depth_source: "none".into(),
+                depth_units_per_metre: Some(1000.0),
+                intrinsics: "SIMPLE_PINHOLE 640 480 525 320 240".into(),
+                excluded: vec![ExcludedFrame {
+                    name: "seq-02/frame-000000.color.png".into(),
+                    split: Split::Test,
+                    reason: "why not".into(),
+                }],
+            },
+        }
+    }
+
+    #[test]
+    fn parquet_round_trip_is_bit_exact_and_deterministic() {
+        let dir = tempfile::tempdir().unwrap();
+        let t = table();
+        let a = dir.path().join("a.parquet");
+        let b = dir.path().join("b.parquet");
+        t.write_parquet(&a).unwrap();
+        t.write_parquet(&b).unwrap();
+        assert_eq!(std::fs::read(&a).unwrap(), std::fs::read(&b).unwrap());
+        let back = FramesTable::read_parquet(&a).unwrap();
+        assert_eq!(back.meta, t.meta);
+        assert_eq!(back.frames.len(), t.frames.len());
+        for (x, y) in back.frames.iter().zip(&t.frames) {
+            let bits = |v: &[f64]| v.iter().map(|f| f.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(&x.camera.params), bits(&y.camera.params));
+            assert_eq!(bits(&x.pose.qvec()), bits(&y.pose.qvec()));
+            assert_eq!(bits(&x.pose.tvec()), bits(&y.pose.tvec()));
+            assert_eq!(x, y);
+        }
+        // Nothing but the table is left in the folder (no temp file).
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 2);
+    }
+
+    #[test]
+    fn refuses_a_parquet_file_that_is_not_a_frames_table() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("other.parquet");
+        let mut df = DataFrame::new(1, vec![Column::new("id".into(), vec![1u32])]).unwrap();
+        ParquetWriter::new(std::fs::File::create(&p).unwrap())
+            .finish(&mut df)
+            .unwrap();
+        let e = FramesTable::read_parquet(&p).unwrap_err();
+        assert!(e.to_string().contains(VERSION_KEY), "{e}");
+        std::fs::write(&p, b"not parquet at all").unwrap();
+        assert!(matches!(
+            FramesTable::read_parquet(&p),
+            Err(FramesError::Polars { .. })
+        ));
+    }
+}

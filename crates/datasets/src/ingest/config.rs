@@ -1,0 +1,209 @@
+//! The ingest configuration: a serde struct embedded in pipeline TOML files, and the
+//! option types the command line parses.
+
+use super::camera_spec;
+use super::error::{IngestError, Result};
+use geometry::Camera;
+use serde::{Deserialize, Serialize};
+use std::path::PathBuf;
+use std::str::FromStr;
+
+/// Which dataset layout to read.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum DatasetKind {
+    #[serde(rename = "7scenes")]
+    SevenScenes,
+    #[serde(rename = "cambridge")]
+    Cambridge,
+}
+
+impl DatasetKind {
+    pub fn name(self) -> &'static str {
+        match self {
+            DatasetKind::SevenScenes => "7scenes",
+            DatasetKind::Cambridge => "cambridge",
+        }
+    }
+}
+
+impl FromStr for DatasetKind {
+    type Err = String;
+    fn from_str(s: &str) -> std::result::Result<Self, String> {
+        match s {
+            "7scenes" => Ok(DatasetKind::SevenScenes),
+            "cambridge" => Ok(DatasetKind::Cambridge),
+            _ => Err(format!(
+                "unknown dataset {s:?} (expected 7scenes or cambridge)"
+            )),
+        }
+    }
+}
+
+/// Which pose the colour camera gets (7-Scenes; Cambridge has only `published`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum PoseOption {
+    /// The dataset's pose as published (7-Scenes: the depth camera's, from pose.txt).
+    #[default]
+    Published,
+    /// 7-Scenes: moved to the colour camera with the Kinect depth-to-RGB extrinsic.
+    Calibrated,
+}
+
+impl FromStr for PoseOption {
+    type Err = String;
+    fn from_str(s: &str) -> std::result::Result<Self, String> {
+        match s {
+            "published" => Ok(PoseOption::Published),
+            "calibrated" => Ok(PoseOption::Calibrated),
+            _ => Err(format!(
+                "unknown pose option {s:?} (expected published or calibrated)"
+            )),
+        }
+    }
+}
+
+/// Which depth maps the table points to.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum DepthOption {
+    #[default]
+    None,
+    /// 7-Scenes: each depth.png registered into the colour camera, written to `depth/`.
+    Raw,
+    /// A folder of depth maps rendered in the colour camera, found by frame name
+    /// ([`depth::rendered_candidates`] lists the accepted names).
+    Rendered(PathBuf),
+}
+
+impl FromStr for DepthOption {
+    type Err = String;
+    fn from_str(s: &str) -> std::result::Result<Self, String> {
+        match s {
+            "none" => Ok(DepthOption::None),
+            "raw" => Ok(DepthOption::Raw),
+            _ => match s.strip_prefix("rendered:") {
+                Some(dir) if !dir.is_empty() => Ok(DepthOption::Rendered(PathBuf::from(dir))),
+                _ => Err(format!(
+                    "unknown depth option {s:?} (expected none, raw or rendered:DIR)"
+                )),
+            },
+        }
+    }
+}
+
+/// What to ingest. Serde struct: it is embedded in pipeline TOML files.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct IngestConfig {
+    pub dataset: DatasetKind,
+    /// The dataset folder. With `scene`, the scene is `root/scene`; without, `root` is
+    /// the scene folder itself (the one holding the split files).
+    pub root: PathBuf,
+    #[serde(default)]
+    pub scene: Option<String>,
+    #[serde(default)]
+    pub poses: PoseOption,
+    #[serde(default)]
+    pub depth: DepthOption,
+    /// A camera for every frame, `MODEL WIDTH HEIGHT PARAMS...` (COLMAP order), instead
+    /// of the dataset's default intrinsics.
+    #[serde(default)]
+    pub camera: Option<String>,
+}
+
+impl IngestConfig {
+    pub fn new(dataset: DatasetKind, root: impl Into<PathBuf>) -> Self {
+        IngestConfig {
+            dataset,
+            root: root.into(),
+            scene: None,
+            poses: PoseOption::default(),
+            depth: DepthOption::default(),
+            camera: None,
+        }
+    }
+
+    pub fn scene_dir(&self) -> PathBuf {
+        match &self.scene {
+            Some(s) => self.root.join(s),
+            None => self.root.clone(),
+        }
+    }
+
+    /// Checks option combinations; returns the camera override, parsed.
+    pub(super) fn validate(&self) -> Result<Option<Camera>> {
+        let cambridge = self.dataset == DatasetKind::Cambridge;
+        if cambridge && self.poses == PoseOption::Calibrated {
+            return Err(IngestError::Config(
+                "poses = calibrated applies to 7-Scenes only (Cambridge has one pose source)"
+                    .into(),
+            ));
+        }
+        if cambridge && self.depth == DepthOption::Raw {
+            return Err(IngestError::Config(
+                "depth = raw applies to 7-Scenes only (Cambridge has no sensor depth)".into(),
+            ));
+        }
+        if let Some(s) = &self.scene
+            && (s.is_empty() || s.contains(['/', '\\']) || s == "." || s == "..")
+        {
+            return Err(IngestError::Config(format!(
+                "scene {s:?} must be a folder name inside root"
+            )));
+        }
+        self.camera
+            .as_deref()
+            .map(camera_spec::parse_camera)
+            .transpose()
+            .map_err(IngestError::Config)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn options_parse_and_serialise_for_toml() {
+        assert_eq!("7scenes".parse(), Ok(DatasetKind::SevenScenes));
+        assert!("7Scenes".parse::<DatasetKind>().is_err());
+        assert_eq!("calibrated".parse(), Ok(PoseOption::Calibrated));
+        assert_eq!(
+            "rendered:/a/b".parse(),
+            Ok(DepthOption::Rendered(PathBuf::from("/a/b")))
+        );
+        assert!("rendered:".parse::<DepthOption>().is_err());
+        let mut c = IngestConfig::new(DatasetKind::SevenScenes, "/data/7scenes");
+        c.scene = Some("stairs".into());
+        c.depth = DepthOption::Rendered("/r".into());
+        let json = serde_json::to_string(&c).unwrap();
+        assert!(json.contains(r#""dataset":"7scenes""#), "{json}");
+        assert!(json.contains(r#""depth":{"rendered":"/r"}"#), "{json}");
+        let back: IngestConfig = serde_json::from_str(&json).unwrap();
+        assert_eq!(back, c);
+        let minimal: IngestConfig =
+            serde_json::from_str(r#"{"dataset":"cambridge","root":"/x","depth":"none"}"#).unwrap();
+        assert_eq!(minimal.poses, PoseOption::Published);
+        assert!(
+            serde_json::from_str::<IngestConfig>(r#"{"dataset":"cambridge","root":"/x","typo":1}"#)
+                .is_err()
+        );
+    }
+
+    #[test]
+    fn invalid_combinations_are_refused() {
+        let mut c = IngestConfig::new(DatasetKind::Cambridge, "/x");
+        c.poses = PoseOption::Calibrated;
+        assert!(matches!(c.validate(), Err(IngestError::Config(_))));
+        let mut c = IngestConfig::new(DatasetKind::Cambridge, "/x");
+        c.depth = DepthOption::Raw;
+        assert!(matches!(c.validate(), Err(IngestError::Config(_))));
+        let mut c = IngestConfig::new(DatasetKind::SevenScenes, "/x");
+        c.scene = Some("../etc".into());
+        assert!(matches!(c.validate(), Err(IngestError::Config(_))));
+        c.scene = None;
+        c.camera = Some("PINHOLE 640 480 1".into());
+        assert!(matches!(c.validate(), Err(IngestError::Config(_))));
+    }
+}

@@ -1,0 +1,96 @@
+use crate::frames::FramesError;
+use geometry::GeometryError;
+use std::path::PathBuf;
+use thiserror::Error;
+
+/// Everything that can go wrong while ingesting a dataset. Each variant about an input
+/// names the file and, where the file is text, the 1-based line.
+#[derive(Debug, Error)]
+pub enum IngestError {
+    #[error("{path}: {source}")]
+    Io {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    /// A file or folder the layout requires does not exist.
+    #[error("{path}: missing {what}")]
+    Missing { path: PathBuf, what: String },
+    /// A text file does not have the expected layout.
+    #[error("{path}:{line}: {message}")]
+    Parse {
+        path: PathBuf,
+        line: usize,
+        message: String,
+    },
+    /// Values that parse but do not form a valid pose (NaN, not a rotation, last row of a
+    /// 4x4 not [0 0 0 1], quaternion far from unit norm).
+    #[error("{path}:{line}: invalid pose: {source}")]
+    Pose {
+        path: PathBuf,
+        line: usize,
+        #[source]
+        source: GeometryError,
+    },
+    /// A colour frame of 7-Scenes exists in neither of the accepted encodings.
+    #[error("{dir}: no colour image for {stem} (expected {stem}.color.png or {stem}.color.jpg)")]
+    MissingColour { dir: PathBuf, stem: String },
+    /// Two files claim the same role (e.g. both .color.png and .color.jpg).
+    #[error("{path}: ambiguous {what}: {candidates:?}")]
+    Ambiguous {
+        path: PathBuf,
+        what: String,
+        candidates: Vec<String>,
+    },
+    #[error("{path}: cannot read the image: {source}")]
+    Image {
+        path: PathBuf,
+        #[source]
+        source: image::ImageError,
+    },
+    /// An image or depth map whose size or pixel type is not the expected one.
+    #[error("{path}: {message}")]
+    ImageContent { path: PathBuf, message: String },
+    /// A depth map whose size differs from its colour image.
+    #[error("{path}: depth map is {got_w}x{got_h}, its colour image {image} is {w}x{h}")]
+    DepthSize {
+        path: PathBuf,
+        image: String,
+        got_w: u32,
+        got_h: u32,
+        w: u32,
+        h: u32,
+    },
+    /// A Cambridge frame the NVM reconstruction has no camera for.
+    #[error("{nvm}: no camera for frame {name} (looked up NVM names {nvm_stem}.*)")]
+    NvmMissingCamera {
+        nvm: PathBuf,
+        name: String,
+        nvm_stem: String,
+    },
+    /// The same frame listed twice (same split file, or both splits).
+    #[error("{path}:{line}: {name} is listed twice ({first})")]
+    Duplicate {
+        path: PathBuf,
+        line: usize,
+        name: String,
+        first: String,
+    },
+    /// A camera that does not fit its images.
+    #[error("{path}: {message}")]
+    Camera { path: PathBuf, message: String },
+    /// An invalid configuration (not about a file).
+    #[error("invalid ingest configuration: {0}")]
+    Config(String),
+    #[error(transparent)]
+    Frames(#[from] FramesError),
+    #[error(transparent)]
+    Stage(#[from] stage::StageError),
+}
+
+pub type Result<T, E = IngestError> = std::result::Result<T, E>;
+
+pub(crate) fn io_err(path: impl Into<PathBuf>) -> impl FnOnce(std::io::Error) -> IngestError {
+    let path = path.into();
+    move |source| IngestError::Io { path, source }
+}

@@ -1,0 +1,50 @@
+use std::path::PathBuf;
+use thiserror::Error;
+
+/// Errors of the synthetic scene generator.
+#[derive(Debug, Error)]
+pub enum SynthError {
+    #[error("the synthetic renderer needs a PINHOLE camera, got {0}")]
+    UnsupportedCamera(String),
+    #[error("camera size {width}x{height} is invalid for rendering (1..=16384 per side)")]
+    InvalidCameraSize { width: u64, height: u64 },
+    #[error("pose is not finite")]
+    NonFinitePose,
+    #[error("invalid synthetic configuration: {0}")]
+    InvalidConfig(String),
+    #[error(
+        "sequence {sequence}: could not keep {clearance_m} m clearance from walls and objects (best {best_m:.3} m)"
+    )]
+    Trajectory {
+        sequence: u32,
+        clearance_m: f64,
+        best_m: f64,
+    },
+    #[error("frame index {index} out of range (the dataset has {count} frames)")]
+    FrameIndex { index: usize, count: usize },
+    #[error("output {0} already exists (pass overwrite to replace it)")]
+    OutputExists(PathBuf),
+    #[error("I/O error on {path}: {source}")]
+    Io {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("could not encode {path}: {source}")]
+    Encode {
+        path: PathBuf,
+        #[source]
+        source: image::ImageError,
+    },
+}
+
+impl SynthError {
+    pub(crate) fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
+        SynthError::Io {
+            path: path.into(),
+            source,
+        }
+    }
+}
+
+pub type Result<T, E = SynthError> = std::result::Result<T, E>;

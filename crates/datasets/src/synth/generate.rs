@@ -1,0 +1,274 @@
+//! The library entry point: build the room and its camera paths, render every frame in
+//! parallel and write the chosen layout atomically.
+
+use super::error::{Result, SynthError};
+use super::layout::{
+    Layout, NvmCamera, Staging, cambridge_name, cambridge_nvm_name, encode_png_depth,
+    encode_png_rgb, format_cambridge_split, format_nvm, format_pose_txt, format_split_file,
+    seven_scenes_names,
+};
+use super::render::Rendered;
+use super::scene::Scene;
+use super::trajectory::{
+    DEFAULT_FRAMES, FrameSpec, Split, default_camera, plan_frames, plan_sequences,
+};
+use geometry::{Camera, Pose};
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use rayon::prelude::*;
+use std::collections::BTreeSet;
+use std::path::PathBuf;
+use std::sync::Arc;
+
+/// Default scene folder name.
+pub const DEFAULT_SCENE_NAME: &str = "synthroom";
+
+/// What `pl2map synth` asks for.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SynthConfig {
+    /// Output folder; the dataset goes to `out/<scene_name>`.
+    pub out: PathBuf,
+    pub scene_name: String,
+    /// Total frames (2/3 training); ignored with `tiny`.
+    pub frames: usize,
+    pub seed: u64,
+    pub layout: Layout,
+    /// The test-sized scene: 24 training + 8 test frames.
+    pub tiny: bool,
+    /// Replace an existing `out/<scene_name>`.
+    pub overwrite: bool,
+    /// Show a progress bar (it is hidden anyway when stderr is not a terminal).
+    pub progress: bool,
+}
+
+impl Default for SynthConfig {
+    fn default() -> Self {
+        SynthConfig {
+            out: PathBuf::from("."),
+            scene_name: DEFAULT_SCENE_NAME.into(),
+            frames: DEFAULT_FRAMES,
+            seed: 0,
+            layout: Layout::SevenScenes,
+            tiny: false,
+            overwrite: false,
+            progress: true,
+        }
+    }
+}
+
+/// The scene, the camera and every frame's pose: everything needed to render or
+/// raycast any frame again, without touching the disk.
+#[derive(Clone, Debug)]
+pub struct SynthDataset {
+    pub scene: Arc<Scene>,
+    pub camera: Camera,
+    pub frames: Vec<FrameSpec>,
+    pub seed: u64,
+}
+
+impl SynthDataset {
+    /// Builds the scene for `seed` and plans `frames` frames (or the tiny plan).
+    pub fn new(frames: usize, seed: u64, tiny: bool) -> Result<Self> {
+        let plans = plan_sequences(frames, tiny)?;
+        let scene = Scene::shared(seed);
+        let frames = plan_frames(&scene, &plans, seed)?;
+        Ok(SynthDataset {
+            scene,
+            camera: default_camera(),
+            frames,
+            seed,
+        })
+    }
+
+    pub fn len(&self) -> usize {
+        self.frames.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.frames.is_empty()
+    }
+
+    /// Renders frame `i` (deterministic: the same pixels on every call and thread).
+    pub fn render_frame(&self, i: usize) -> Result<Rendered> {
+        let f = self.frames.get(i).ok_or(SynthError::FrameIndex {
+            index: i,
+            count: self.frames.len(),
+        })?;
+        self.scene.render(&self.camera, &f.pose)
+    }
+
+    /// Sequence numbers of a split, ascending.
+    pub fn sequences(&self, split: Split) -> Vec<u32> {
+        self.frames
+            .iter()
+            .filter(|f| f.split == split)
+            .map(|f| f.sequence)
+            .collect::<BTreeSet<_>>()
+            .into_iter()
+            .collect()
+    }
+}
+
+/// One written frame.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FrameInfo {
+    /// Index into [`SynthDataset::frames`].
+    pub index: usize,
+    /// The image's name relative to the scene folder, as the layout's lists name it
+    /// (`seq-01/frame-000000.color.png`, `seq1/frame00001.png`).
+    pub name: String,
+    pub split: Split,
+    pub sequence: u32,
+    pub frame_in_sequence: usize,
+    pub camera: Camera,
+    /// World-to-camera, exact (the files hold it to 8 significant digits, 7-Scenes, or
+    /// 6 decimals, Cambridge).
+    pub pose: Pose,
+    pub color_path: PathBuf,
+    /// 7-Scenes only.
+    pub depth_path: Option<PathBuf>,
+    /// 7-Scenes only.
+    pub pose_path: Option<PathBuf>,
+}
+
+/// What [`generate`] wrote.
+#[derive(Clone, Debug)]
+pub struct SynthOutput {
+    /// The scene folder `out/<scene_name>`.
+    pub root: PathBuf,
+    pub layout: Layout,
+    pub dataset: SynthDataset,
+    pub frames: Vec<FrameInfo>,
+}
+
+/// Builds, renders and writes the synthetic dataset. Same config (seed included) =>
+/// byte-identical files, whatever the number of rayon threads.
+pub fn generate(cfg: &SynthConfig) -> Result<SynthOutput> {
+    if cfg.scene_name.is_empty()
+        || cfg.scene_name.contains(['/', '\\'])
+        || cfg.scene_name.starts_with('.')
+    {
+        return Err(SynthError::InvalidConfig(format!(
+            "scene name {:?} must be a plain folder name",
+            cfg.scene_name
+        )));
+    }
+    let dataset = SynthDataset::new(cfg.frames, cfg.seed, cfg.tiny)?;
+    let staging = Staging::new(&cfg.out, &cfg.scene_name, cfg.overwrite)?;
+    let root = staging.dest().to_path_buf();
+
+    let mut seqs: BTreeSet<u32> = BTreeSet::new();
+    for f in &dataset.frames {
+        seqs.insert(f.sequence);
+    }
+    for s in &seqs {
+        match cfg.layout {
+            Layout::SevenScenes => staging.create_dir(&format!("seq-{s:02}"))?,
+            Layout::Cambridge => staging.create_dir(&format!("seq{s}"))?,
+        }
+    }
+
+    let bar = if cfg.progress {
+        ProgressBar::with_draw_target(Some(dataset.len() as u64), ProgressDrawTarget::stderr())
+    } else {
+        ProgressBar::hidden()
+    };
+    if let Ok(style) =
+        ProgressStyle::with_template("synth {bar:30} {pos}/{len} frames ({per_sec}, eta {eta})")
+    {
+        bar.set_style(style);
+    }
+
+    let frames: Vec<FrameInfo> = (0..dataset.len())
+        .into_par_iter()
+        .map(|i| {
+            let f = dataset.frames[i];
+            let r = dataset.render_frame(i)?;
+            let info = match cfg.layout {
+                Layout::SevenScenes => {
+                    let (c, d, p) = seven_scenes_names(f.sequence, f.index);
+                    let tmp = staging.path();
+                    staging.write(&c, &encode_png_rgb(&r.rgb, &tmp.join(&c))?)?;
+                    staging.write(&d, &encode_png_depth(&r.depth_mm(), &tmp.join(&d))?)?;
+                    staging.write(
+                        &p,
+                        format_pose_txt(&f.pose.inverse().to_matrix()).as_bytes(),
+                    )?;
+                    FrameInfo {
+                        index: i,
+                        name: c.clone(),
+                        split: f.split,
+                        sequence: f.sequence,
+                        frame_in_sequence: f.index,
+                        camera: dataset.camera.clone(),
+                        pose: f.pose,
+                        color_path: root.join(&c),
+                        depth_path: Some(root.join(&d)),
+                        pose_path: Some(root.join(&p)),
+                    }
+                }
+                Layout::Cambridge => {
+                    let c = cambridge_name(f.sequence, f.index);
+                    staging.write(&c, &encode_png_rgb(&r.rgb, &staging.path().join(&c))?)?;
+                    FrameInfo {
+                        index: i,
+                        name: c.clone(),
+                        split: f.split,
+                        sequence: f.sequence,
+                        frame_in_sequence: f.index,
+                        camera: dataset.camera.clone(),
+                        pose: f.pose,
+                        color_path: root.join(&c),
+                        depth_path: None,
+                        pose_path: None,
+                    }
+                }
+            };
+            bar.inc(1);
+            Ok(info)
+        })
+        .collect::<Result<Vec<_>>>()?;
+    bar.finish_and_clear();
+
+    match cfg.layout {
+        Layout::SevenScenes => {
+            staging.write(
+                "TrainSplit.txt",
+                format_split_file(&dataset.sequences(Split::Train)).as_bytes(),
+            )?;
+            staging.write(
+                "TestSplit.txt",
+                format_split_file(&dataset.sequences(Split::Test)).as_bytes(),
+            )?;
+        }
+        Layout::Cambridge => {
+            for (split, file) in [
+                (Split::Train, "dataset_train.txt"),
+                (Split::Test, "dataset_test.txt"),
+            ] {
+                let rows: Vec<(String, Pose)> = frames
+                    .iter()
+                    .filter(|f| f.split == split)
+                    .map(|f| (f.name.clone(), f.pose))
+                    .collect();
+                staging.write(file, format_cambridge_split(&rows).as_bytes())?;
+            }
+            let focal = dataset.camera.mean_focal_length();
+            let cams: Vec<NvmCamera> = frames
+                .iter()
+                .map(|f| NvmCamera {
+                    name: cambridge_nvm_name(f.sequence, f.frame_in_sequence),
+                    focal,
+                    pose: f.pose,
+                })
+                .collect();
+            staging.write("reconstruction.nvm", format_nvm(&cams, &[]).as_bytes())?;
+        }
+    }
+    let root = staging.commit()?;
+    Ok(SynthOutput {
+        root,
+        layout: cfg.layout,
+        dataset,
+        frames,
+    })
+}

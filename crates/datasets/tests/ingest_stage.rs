@@ -1,0 +1,126 @@
+//! The ingest stage folder: skipped reruns, reruns on any change, identical bytes for any
+//! thread count.
+
+mod ingest_common;
+
+use datasets::frames::FramesTable;
+use datasets::ingest::{self, DatasetKind, DepthOption, IngestConfig, PoseOption};
+use ingest_common::*;
+use std::path::Path;
+
+fn config(scene: &Path) -> IngestConfig {
+    let mut c = IngestConfig::new(DatasetKind::SevenScenes, scene);
+    c.camera = Some("SIMPLE_PINHOLE 16 12 10 8 6".into());
+    c.depth = DepthOption::Raw;
+    c
+}
+
+fn record(out: &Path) -> serde_json::Value {
+    serde_json::from_slice(&std::fs::read(out.join("stage.json")).unwrap()).unwrap()
+}
+
+#[test]
+fn rerun_is_skipped_until_something_changes() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = seven_scenes(dir.path(), 16, 12);
+    let out = dir.path().join("work/ingest");
+    let c = config(&scene);
+
+    let first = ingest::run(&c, &out).unwrap();
+    assert!(!first.skipped);
+    let rec = record(&out);
+    assert_eq!(rec["stage"], "ingest");
+    let outputs = rec["outputs"].as_object().unwrap();
+    // frames.parquet and one registered depth map per frame.
+    assert_eq!(outputs.len(), 4, "{outputs:?}");
+    assert!(outputs.contains_key("depth/seq-02/frame-000000.depth.png"));
+    let inputs = rec["inputs"].as_object().unwrap();
+    let mut keys: Vec<&str> = inputs.keys().map(String::as_str).collect();
+    keys.sort_unstable();
+    assert_eq!(keys, ["depth", "images", "poses", "splits"]);
+
+    let second = ingest::run(&c, &out).unwrap();
+    assert!(second.skipped);
+    assert_eq!(second.table, first.table);
+
+    // Another configuration reruns.
+    let mut c2 = c.clone();
+    c2.poses = PoseOption::Calibrated;
+    assert!(!ingest::run(&c2, &out).unwrap().skipped);
+    assert!(ingest::run(&c2, &out).unwrap().skipped);
+
+    // Changed input content (same size, same name) reruns.
+    let pose = scene.join("seq-01/frame-000000.pose.txt");
+    std::fs::write(&pose, pose_txt(&fixture_pose(7).inverse().to_matrix())).unwrap();
+    let third = ingest::run(&c2, &out).unwrap();
+    assert!(!third.skipped);
+    assert_ne!(third.table.frames[0].pose, first.table.frames[0].pose);
+
+    // A modified or deleted output reruns, and restores it.
+    let parquet = out.join("frames.parquet");
+    std::fs::write(&parquet, b"tampered").unwrap();
+    assert!(!ingest::run(&c2, &out).unwrap().skipped);
+    assert!(FramesTable::read_parquet(&parquet).is_ok());
+    std::fs::remove_file(out.join("depth/seq-01/frame-000001.depth.png")).unwrap();
+    assert!(!ingest::run(&c2, &out).unwrap().skipped);
+    assert!(out.join("depth/seq-01/frame-000001.depth.png").is_file());
+
+    // Without depth, the registered depth of the earlier run is removed.
+    let mut c3 = c2.clone();
+    c3.depth = DepthOption::None;
+    let t = ingest::run(&c3, &out).unwrap().table;
+    assert!(t.frames.iter().all(|f| f.depth_path.is_none()));
+    assert!(!out.join("depth").exists());
+    assert_eq!(record(&out)["outputs"].as_object().unwrap().len(), 1);
+
+    // A run that fails while listing the inputs leaves the folder as it was.
+    std::fs::remove_file(scene.join("TestSplit.txt")).unwrap();
+    assert!(ingest::run(&c3, &out).is_err());
+    std::fs::write(scene.join("TestSplit.txt"), "sequence2\r\n\r\n").unwrap();
+    assert!(
+        ingest::run(&c3, &out).unwrap().skipped,
+        "inputs unchanged: still up to date"
+    );
+
+    // A run that fails while reading a frame leaves no record: the next run cannot skip.
+    let good = std::fs::read(&pose).unwrap();
+    std::fs::write(&pose, "1 0 0 0\n0 1 0 0\n0 0 1 0\n0 0 0 2\n").unwrap();
+    assert!(ingest::run(&c3, &out).is_err());
+    assert!(!out.join("stage.json").exists());
+    std::fs::write(&pose, good).unwrap();
+    assert!(!ingest::run(&c3, &out).unwrap().skipped);
+}
+
+#[test]
+fn same_bytes_for_any_thread_count() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = seven_scenes(dir.path(), 16, 12);
+    let c = config(&scene);
+    let out = dir.path().join("out");
+    let files = [
+        "frames.parquet",
+        "stage.json",
+        "depth/seq-01/frame-000000.depth.png",
+        "depth/seq-01/frame-000001.depth.png",
+        "depth/seq-02/frame-000000.depth.png",
+    ];
+    let run_with = |threads: usize| -> Vec<Vec<u8>> {
+        if out.exists() {
+            std::fs::remove_dir_all(&out).unwrap();
+        }
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| assert!(!ingest::run(&c, &out).unwrap().skipped));
+        files
+            .iter()
+            .map(|f| std::fs::read(out.join(f)).unwrap())
+            .collect()
+    };
+    let one = run_with(1);
+    let three = run_with(3);
+    for (f, (a, b)) in files.iter().zip(one.iter().zip(&three)) {
+        assert!(a == b, "{f} differs between 1 and 3 threads");
+    }
+}
