@@ -1,0 +1,263 @@
+//! Depth refinement of line labels (see the module docs of [`super`]).
+
+use super::RefineConfig;
+use super::fit::{principal_line, ransac_line};
+use super::report::{KindReport, Outcome, Tally};
+use crate::align::align_endpoints;
+use crate::depth::{DepthMap, back_project};
+use crate::tables::{LineRow, PoseRow};
+use geometry::{Vector2, Vector3};
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use rayon::prelude::*;
+use std::collections::{BTreeMap, HashMap};
+use std::ops::Range;
+
+/// The back-projected samples of one support, or None when fewer than
+/// `line_min_valid_samples` had valid depth.
+type SupportSamples = Option<Vec<Vector3<f64>>>;
+
+pub(crate) struct FrameSamples {
+    supports: Vec<(usize, SupportSamples)>,
+}
+
+fn sample_count(config: &RefineConfig, seg: &[f64; 4]) -> usize {
+    let len = ((seg[2] - seg[0]).powi(2) + (seg[3] - seg[1]).powi(2)).sqrt();
+    let n = (len / config.line_sample_spacing_px).ceil() + 1.0;
+    // `as` saturates; the clamp bounds it by the configured maximum.
+    (n as usize).clamp(config.line_min_samples, config.line_max_samples)
+}
+
+pub(crate) fn sample_frame(
+    config: &RefineConfig,
+    view: &PoseRow,
+    depth: Option<&DepthMap>,
+    rows: &[LineRow],
+    range: Range<usize>,
+) -> FrameSamples {
+    let Some(depth) = depth else {
+        return FrameSamples {
+            supports: Vec::new(),
+        };
+    };
+    let mut supports = Vec::new();
+    for i in range {
+        let row = &rows[i];
+        if row.endpoints.is_none() {
+            continue;
+        }
+        let s = &row.segment;
+        let n = sample_count(config, s);
+        let mut pts = Vec::with_capacity(n);
+        for k in 0..n {
+            let t = k as f64 / (n - 1) as f64;
+            let px = Vector2::new(s[0] + t * (s[2] - s[0]), s[1] + t * (s[3] - s[1]));
+            if let Some(w) = depth
+                .sample(&px)
+                .and_then(|d| back_project(&view.camera, &view.pose, &px, d))
+            {
+                pts.push(w);
+            }
+        }
+        let ok = pts.len() >= config.line_min_valid_samples;
+        supports.push((i, ok.then_some(pts)));
+    }
+    FrameSamples { supports }
+}
+
+/// The decision for every row of one track.
+struct TrackResult {
+    /// Track-order endpoints, when refined.
+    line: Option<[[f64; 3]; 2]>,
+    outcomes: Vec<(usize, Outcome)>,
+}
+
+fn seed_of(seed: u64, key: i64) -> u64 {
+    // splitmix64 of the pair: independent streams per track, any thread count.
+    let mut z = seed ^ (key as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
+}
+
+fn ratio_ok(config: &RefineConfig, inliers: usize, total: usize) -> bool {
+    total > 0 && inliers as f64 >= config.line_min_inlier_ratio * total as f64
+}
+
+fn refine_track(
+    config: &RefineConfig,
+    key: i64,
+    members: &[usize],
+    observed: &HashMap<usize, &SupportSamples>,
+    old_direction: Vector3<f64>,
+) -> TrackResult {
+    let thr = config.line_inlier_threshold_m;
+    let mut rng = ChaCha8Rng::seed_from_u64(seed_of(config.seed, key));
+    let mut outcomes: Vec<(usize, Outcome)> = Vec::with_capacity(members.len());
+    // Accepted supports: (row, inlier samples).
+    let mut accepted: Vec<(usize, Vec<Vector3<f64>>)> = Vec::new();
+    for &i in members {
+        match observed.get(&i) {
+            None => {}
+            Some(None) => outcomes.push((i, Outcome::NoDepth)),
+            Some(Some(pts)) => match ransac_line(pts, thr, config.ransac_iterations, &mut rng) {
+                Some(fit) if ratio_ok(config, fit.inlier_count(), pts.len()) => {
+                    let inl = pts
+                        .iter()
+                        .zip(&fit.inliers)
+                        .filter(|(_, b)| **b)
+                        .map(|(p, _)| *p)
+                        .collect();
+                    accepted.push((i, inl));
+                }
+                _ => outcomes.push((i, Outcome::Fit)),
+            },
+        }
+    }
+    let drop_rest = |mut outcomes: Vec<(usize, Outcome)>, why: Outcome| {
+        for &i in members {
+            if !outcomes.iter().any(|(r, _)| *r == i) {
+                outcomes.push((i, why));
+            }
+        }
+        TrackResult {
+            line: None,
+            outcomes,
+        }
+    };
+    if accepted.is_empty() {
+        let why = if outcomes.iter().any(|(_, o)| *o == Outcome::Fit) {
+            Outcome::Fit
+        } else {
+            Outcome::NoDepth
+        };
+        return drop_rest(outcomes, why);
+    }
+    // Merge: one line through the supports' samples; a support stays when most of its
+    // samples are on it.
+    let union: Vec<Vector3<f64>> = accepted
+        .iter()
+        .flat_map(|(_, p)| p.iter().copied())
+        .collect();
+    let Some(merged) = ransac_line(&union, thr, config.ransac_iterations, &mut rng) else {
+        return drop_rest(outcomes, Outcome::Disagree);
+    };
+    let mut kept_points = Vec::new();
+    let mut kept_rows = Vec::new();
+    for (i, pts) in &accepted {
+        let on: Vec<Vector3<f64>> = pts
+            .iter()
+            .filter(|p| merged.line.distance(p) <= thr)
+            .copied()
+            .collect();
+        if ratio_ok(config, on.len(), pts.len()) {
+            kept_points.extend(on);
+            kept_rows.push(*i);
+        } else {
+            outcomes.push((*i, Outcome::Disagree));
+        }
+    }
+    if kept_rows.is_empty() {
+        return drop_rest(outcomes, Outcome::Disagree);
+    }
+    let line = principal_line(&kept_points).unwrap_or(merged.line);
+    let (lo, hi) = kept_points
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
+            let t = line.param(p);
+            (lo.min(t), hi.max(t))
+        });
+    let (mut a, mut b) = (line.at(lo), line.at(hi));
+    if (b - a).dot(&old_direction) < 0.0 {
+        std::mem::swap(&mut a, &mut b);
+    }
+    for &i in &kept_rows {
+        outcomes.push((i, Outcome::Kept));
+    }
+    // Rows in frames without a depth map take the refined track.
+    for &i in members {
+        if !observed.contains_key(&i) {
+            outcomes.push((i, Outcome::Kept));
+        }
+    }
+    TrackResult {
+        line: Some([[a.x, a.y, a.z], [b.x, b.y, b.z]]),
+        outcomes,
+    }
+}
+
+/// Groups the labels of each track, fits and merges, rewrites `rows`.
+pub(crate) fn combine(
+    config: &RefineConfig,
+    rows: &mut [LineRow],
+    samples: Vec<FrameSamples>,
+    poses: &HashMap<u32, &PoseRow>,
+) -> KindReport {
+    let mut groups: BTreeMap<i64, Vec<usize>> = BTreeMap::new();
+    for (i, r) in rows.iter().enumerate() {
+        if r.endpoints.is_some() {
+            let key = if r.track_id >= 0 {
+                r.track_id
+            } else {
+                -2 - i as i64
+            };
+            groups.entry(key).or_default().push(i);
+        }
+    }
+    let observed_owned: Vec<(usize, SupportSamples)> =
+        samples.into_iter().flat_map(|s| s.supports).collect();
+    let observed: HashMap<usize, &SupportSamples> =
+        observed_owned.iter().map(|(i, s)| (*i, s)).collect();
+    let groups: Vec<(i64, Vec<usize>)> = groups.into_iter().collect();
+    let rows_ref: &[LineRow] = rows;
+    let results: Vec<TrackResult> = groups
+        .par_iter()
+        .map(|(key, members)| {
+            // The track's own order, recovered from its first label.
+            let r = &rows_ref[members[0]];
+            let ends = r.endpoints.unwrap_or_default();
+            let (s, e) = if r.swapped {
+                (ends[1], ends[0])
+            } else {
+                (ends[0], ends[1])
+            };
+            let dir = Vector3::from(e) - Vector3::from(s);
+            refine_track(config, *key, members, &observed, dir)
+        })
+        .collect();
+
+    let mut tally = Tally::default();
+    for result in results {
+        tally.object(result.line.is_some());
+        let mut outcomes = result.outcomes;
+        outcomes.sort_by_key(|(i, _)| *i);
+        for (i, outcome) in outcomes {
+            let row = &mut rows[i];
+            let old = row.endpoints;
+            match (outcome, result.line, poses.get(&row.frame_id)) {
+                (Outcome::Kept, Some(line), Some(view)) => {
+                    let (ends, swapped, _) =
+                        align_endpoints(&view.camera, &view.pose, &row.segment, &line);
+                    let moved = old.map(|o| {
+                        0.5 * (crate::stats::dist3(&o[0], &ends[0])
+                            + crate::stats::dist3(&o[1], &ends[1]))
+                    });
+                    row.endpoints = Some(ends);
+                    row.swapped = swapped;
+                    tally.add(Outcome::Kept, moved);
+                }
+                (Outcome::Kept, _, _) => {
+                    row.endpoints = None;
+                    row.swapped = false;
+                    tally.add(Outcome::NoDepth, None);
+                }
+                (o, _, _) => {
+                    row.endpoints = None;
+                    row.swapped = false;
+                    tally.add(o, None);
+                }
+            }
+        }
+    }
+    tally.report()
+}

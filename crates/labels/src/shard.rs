@@ -1,0 +1,520 @@
+//! The shard stage: frames table + label tables -> MCAP shards and their manifest
+//! (DESIGN.md "Label shard (MCAP)"), through the `shards` crate.
+//!
+//! Training frames go into `train-<k>.mcap` shards with their labels, the camera and
+//! pose of the label tables (the ones the labels were made with). Test frames go, in
+//! the same run, into separate `test-<k>.mcap` shards with the frames table's camera and
+//! ground-truth pose and no labels: real datasets have no SfM labels for them, and the
+//! score stage then reads its queries (image, camera, pose) from shards like the trainer
+//! does, with the split of every frame recorded inside. A shard never mixes splits.
+//!
+//! One plan covers both: shards `0..T` are the training shards, `T..T+S` the test
+//! shards (`frames_per_shard` frames each, the last of a split fewer). A work unit writes
+//! a range of that plan (`--shards a..b`) and its manifest `manifest.<a>-<b>.json`; when
+//! the unit manifests in the folder cover the whole plan they are merged into
+//! `manifest.json` and `stage.json` is written, exactly as a single run over all shards
+//! writes them. Image files go in byte for byte (their sha256 must still be the frames
+//! table's content hash). A rerun whose record (or unit manifest) matches is skipped;
+//! a killed run leaves only complete shard files, and a rerun rewrites the same bytes.
+
+use crate::import::remove_record;
+use crate::parquet::TableError;
+use crate::tables::{LINES_FILE, LabelTables, POINTS_FILE, POSES_FILE};
+use datasets::frames::{Frame, FramesError, FramesTable, Split};
+use serde::{Deserialize, Serialize};
+use shards::{
+    FrameRecord, ImageFormat, Manifest, ShardConfig, ShardError, ShardJob, ShardPlan, plan_shards,
+    write_shards,
+};
+use stage::{RecordCheck, StageRecord};
+use std::collections::{BTreeMap, BTreeSet, HashMap};
+use std::ops::Range;
+use std::path::{Path, PathBuf};
+use thiserror::Error;
+
+pub const STAGE: &str = "shard";
+pub const MANIFEST_FILE: &str = "manifest.json";
+pub const TRAIN_PREFIX: &str = "train-";
+pub const TEST_PREFIX: &str = "test-";
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ShardStageConfig {
+    pub shards: ShardConfig,
+    /// Also write the test frames (see the module docs).
+    pub include_test: bool,
+}
+
+impl Default for ShardStageConfig {
+    fn default() -> Self {
+        ShardStageConfig {
+            shards: ShardConfig::default(),
+            include_test: true,
+        }
+    }
+}
+
+#[derive(Debug, Error)]
+pub enum ShardStageError {
+    #[error("frames table: {0}")]
+    Frames(#[from] FramesError),
+    #[error(transparent)]
+    Table(#[from] TableError),
+    #[error(transparent)]
+    Shards(#[from] ShardError),
+    #[error(transparent)]
+    Stage(#[from] stage::StageError),
+    #[error("{}: {source}", path.display())]
+    Io {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error(
+        "the label tables were made from frames table {labels} but {} is {current}: run the \
+         import again",
+        frames.display()
+    )]
+    OtherFrames {
+        frames: PathBuf,
+        labels: String,
+        current: String,
+    },
+    #[error(
+        "the label tables do not cover the training frames: {} training frame(s) without labels \
+         (first {:?}), {} labelled frame(s) that are not training frames (first {:?})",
+        missing.len(), missing.first(), extra.len(), extra.first()
+    )]
+    LabelsDontMatch { missing: Vec<u32>, extra: Vec<u32> },
+    #[error("shard range {start}..{end} is outside the plan's {count} shards")]
+    Range {
+        start: usize,
+        end: usize,
+        count: usize,
+    },
+    #[error("{}: cannot read the manifest: {reason}", path.display())]
+    Manifest { path: PathBuf, reason: String },
+}
+
+/// Why one frame could not be loaded (reported by the shards crate with its frame id).
+#[derive(Debug, Error)]
+enum SourceError {
+    #[error("{}: {source}", path.display())]
+    Read {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    #[error(
+        "{}: the file changed since ingest (sha256 {actual}, the frames table says {expected})",
+        path.display()
+    )]
+    Changed {
+        path: PathBuf,
+        expected: String,
+        actual: String,
+    },
+    #[error("{}: not a PNG or JPEG file", path.display())]
+    Format { path: PathBuf },
+    #[error("frame {0} is not in the plan's tables")]
+    Unknown(u64),
+}
+
+/// What a run did.
+#[derive(Clone, Debug)]
+pub struct ShardOutput {
+    /// The manifest of the shards this run covers (the whole run's when complete).
+    pub manifest: Manifest,
+    /// Whether `manifest.json` (all planned shards) exists after this run.
+    pub complete: bool,
+    pub skipped: bool,
+}
+
+/// The whole run's plan: training shards, then test shards.
+pub fn plan(
+    frames: &FramesTable,
+    config: &ShardStageConfig,
+) -> Result<Vec<ShardPlan>, ShardStageError> {
+    let ids = |split| -> Vec<u64> {
+        frames
+            .frames
+            .iter()
+            .filter(|f| f.split == split)
+            .map(|f| u64::from(f.id))
+            .collect()
+    };
+    let fps = config.shards.frames_per_shard;
+    let mut out: Vec<ShardPlan> = plan_shards(&ids(Split::Train), fps)?
+        .into_iter()
+        .map(|mut p| {
+            p.file_name = format!("{TRAIN_PREFIX}{:05}.mcap", p.index);
+            p
+        })
+        .collect();
+    if config.include_test {
+        let offset = out.len();
+        out.extend(
+            plan_shards(&ids(Split::Test), fps)?
+                .into_iter()
+                .map(|mut p| {
+                    p.file_name = format!("{TEST_PREFIX}{:05}.mcap", p.index);
+                    p.index += offset;
+                    p
+                }),
+        );
+    }
+    Ok(out)
+}
+
+/// The shards of a manifest that hold one split (by file name, see the module docs).
+pub fn shards_of_split(manifest: &Manifest, split: Split) -> Vec<&shards::ManifestShard> {
+    let prefix = match split {
+        Split::Train => TRAIN_PREFIX,
+        Split::Test => TEST_PREFIX,
+    };
+    manifest
+        .shards
+        .iter()
+        .filter(|s| s.file.starts_with(prefix))
+        .collect()
+}
+
+fn unit_manifest_name(range: &Range<usize>) -> String {
+    format!("manifest.{}-{}.json", range.start, range.end)
+}
+
+fn load_manifest(path: &Path) -> Result<Option<Manifest>, ShardStageError> {
+    if !path.is_file() {
+        return Ok(None);
+    }
+    Manifest::load(path)
+        .map(Some)
+        .map_err(|e| ShardStageError::Manifest {
+            path: path.to_path_buf(),
+            reason: e.to_string(),
+        })
+}
+
+/// Whether a unit manifest describes this run and its shards are intact.
+fn unit_up_to_date(m: &Manifest, dir: &Path, expected: &Manifest) -> Result<bool, ShardStageError> {
+    if (
+        &m.config_hash,
+        &m.inputs,
+        &m.tool_version,
+        m.format_version,
+        m.planned_shards,
+        m.planned_frames,
+    ) != (
+        &expected.config_hash,
+        &expected.inputs,
+        &expected.tool_version,
+        expected.format_version,
+        expected.planned_shards,
+        expected.planned_frames,
+    ) {
+        return Ok(false);
+    }
+    for s in &m.shards {
+        let p = dir.join(&s.file);
+        if !p.is_file() || stage::sha256_file(&p)? != s.sha256 {
+            return Ok(false);
+        }
+    }
+    Ok(true)
+}
+
+/// One frame's record: labels for training frames, none for test frames.
+struct Source<'a> {
+    frames: HashMap<u64, &'a Frame>,
+    labels: &'a LabelTables,
+    /// frame id -> (pose row, point rows, line rows)
+    train: HashMap<u64, (usize, Range<usize>, Range<usize>)>,
+}
+
+fn ranges_by_frame(ids: impl Iterator<Item = u32>) -> HashMap<u32, Range<usize>> {
+    let mut out: HashMap<u32, Range<usize>> = HashMap::new();
+    for (i, f) in ids.enumerate() {
+        out.entry(f)
+            .and_modify(|r| r.end = i + 1)
+            .or_insert(i..i + 1);
+    }
+    out
+}
+
+impl Source<'_> {
+    fn load(&self, frame_id: u64) -> Result<FrameRecord, SourceError> {
+        let f = self
+            .frames
+            .get(&frame_id)
+            .ok_or(SourceError::Unknown(frame_id))?;
+        let bytes = std::fs::read(&f.path).map_err(|source| SourceError::Read {
+            path: f.path.clone(),
+            source,
+        })?;
+        let actual = stage::sha256_bytes(&bytes);
+        if actual != f.content_hash {
+            return Err(SourceError::Changed {
+                path: f.path.clone(),
+                expected: f.content_hash.clone(),
+                actual,
+            });
+        }
+        let image_format = ImageFormat::sniff(&bytes).ok_or_else(|| SourceError::Format {
+            path: f.path.clone(),
+        })?;
+        let mut rec = FrameRecord {
+            frame_id,
+            name: f.name.clone(),
+            split: match f.split {
+                Split::Train => shards::Split::Train,
+                Split::Test => shards::Split::Test,
+            },
+            camera: f.camera.clone(),
+            pose: f.pose,
+            image_bytes: bytes,
+            image_format,
+            keypoints: Vec::new(),
+            point3d_ids: Vec::new(),
+            points3d: Vec::new(),
+            point_valid: Vec::new(),
+            segments: Vec::new(),
+            track_ids: Vec::new(),
+            lines3d: Vec::new(),
+            line_valid: Vec::new(),
+            label_source: self.labels.source.to_shards(),
+            endpoints_aligned: true,
+        };
+        if let Some((pose_row, prange, lrange)) = self.train.get(&frame_id) {
+            let view = &self.labels.poses[*pose_row];
+            rec.camera = view.camera.clone();
+            rec.pose = view.pose;
+            for p in &self.labels.points[prange.clone()] {
+                rec.keypoints.push(p.xy);
+                rec.point3d_ids.push(p.point3d_id);
+                rec.points3d.push(p.xyz.unwrap_or([f64::NAN; 3]));
+                rec.point_valid.push(p.xyz.is_some());
+            }
+            for l in &self.labels.lines[lrange.clone()] {
+                rec.segments.push(l.segment);
+                rec.track_ids.push(l.track_id);
+                let e = l.endpoints.unwrap_or([[f64::NAN; 3]; 2]);
+                rec.lines3d
+                    .push([e[0][0], e[0][1], e[0][2], e[1][0], e[1][1], e[1][2]]);
+                rec.line_valid.push(l.endpoints.is_some());
+            }
+        }
+        Ok(rec)
+    }
+}
+
+/// Writes shards `range` of the run's plan (None: all) into `out`.
+pub fn run(
+    config: &ShardStageConfig,
+    frames_path: &Path,
+    labels_dir: &Path,
+    out: &Path,
+    range: Option<Range<usize>>,
+) -> Result<ShardOutput, ShardStageError> {
+    let frames_sha256 = stage::sha256_file(frames_path)?;
+    let frames = FramesTable::read_parquet(frames_path)?;
+    let labels = LabelTables::read(labels_dir)?;
+    if labels.frames_sha256 != frames_sha256 {
+        return Err(ShardStageError::OtherFrames {
+            frames: frames_path.to_path_buf(),
+            labels: labels.frames_sha256.clone(),
+            current: frames_sha256,
+        });
+    }
+    let train_ids: BTreeSet<u32> = frames
+        .frames
+        .iter()
+        .filter(|f| f.split == Split::Train)
+        .map(|f| f.id)
+        .collect();
+    let labelled: BTreeSet<u32> = labels.poses.iter().map(|p| p.frame_id).collect();
+    if train_ids != labelled {
+        return Err(ShardStageError::LabelsDontMatch {
+            missing: train_ids.difference(&labelled).copied().collect(),
+            extra: labelled.difference(&train_ids).copied().collect(),
+        });
+    }
+
+    let plans = plan(&frames, config)?;
+    let count = plans.len();
+    let range = range.unwrap_or(0..count);
+    if range.start > range.end || range.end > count {
+        return Err(ShardStageError::Range {
+            start: range.start,
+            end: range.end,
+            count,
+        });
+    }
+    let full = range == (0..count);
+    let mut inputs = BTreeMap::from([("frames".to_string(), frames_sha256)]);
+    for f in [POINTS_FILE, LINES_FILE, POSES_FILE] {
+        inputs.insert(
+            format!("labels/{f}"),
+            stage::sha256_file(&labels_dir.join(f))?,
+        );
+    }
+    let config_hash = stage::hash_config(config)?;
+    let expected = Manifest {
+        format_version: shards::SHARD_FORMAT_VERSION,
+        tool_version: env!("CARGO_PKG_VERSION").to_string(),
+        config_hash: config_hash.clone(),
+        inputs: inputs.clone(),
+        planned_shards: count,
+        planned_frames: plans.iter().map(|p| p.frame_ids.len() as u64).sum(),
+        shards: Vec::new(),
+    };
+
+    // Skip when this unit (or the whole run) is recorded and intact.
+    if StageRecord::check(out, STAGE, &config_hash, &inputs)? == RecordCheck::UpToDate
+        && let Some(whole) = load_manifest(&out.join(MANIFEST_FILE))?
+    {
+        let shards = whole
+            .shards
+            .iter()
+            .filter(|s| range.contains(&s.index))
+            .cloned()
+            .collect();
+        return Ok(ShardOutput {
+            manifest: Manifest { shards, ..whole },
+            complete: true,
+            skipped: true,
+        });
+    }
+    if !full
+        && let Some(m) = load_manifest(&out.join(unit_manifest_name(&range)))?
+        && unit_up_to_date(&m, out, &expected)?
+    {
+        let complete = finish_if_complete(out, &expected, &config_hash, &inputs)?;
+        return Ok(ShardOutput {
+            manifest: m,
+            complete,
+            skipped: true,
+        });
+    }
+
+    std::fs::create_dir_all(out).map_err(|source| ShardStageError::Io {
+        path: out.to_path_buf(),
+        source,
+    })?;
+    remove_record(out)?;
+    remove_file(&out.join(MANIFEST_FILE))?;
+
+    let point_ranges = ranges_by_frame(labels.points.iter().map(|r| r.frame_id));
+    let line_ranges = ranges_by_frame(labels.lines.iter().map(|r| r.frame_id));
+    let source = Source {
+        frames: frames.frames.iter().map(|f| (u64::from(f.id), f)).collect(),
+        labels: &labels,
+        train: labels
+            .poses
+            .iter()
+            .enumerate()
+            .map(|(i, p)| {
+                (
+                    u64::from(p.frame_id),
+                    (
+                        i,
+                        point_ranges.get(&p.frame_id).cloned().unwrap_or(0..0),
+                        line_ranges.get(&p.frame_id).cloned().unwrap_or(0..0),
+                    ),
+                )
+            })
+            .collect(),
+    };
+    let job = ShardJob {
+        out_dir: out,
+        plans: &plans,
+        config: &config.shards,
+        config_hash: config_hash.clone(),
+        inputs: inputs.clone(),
+    };
+    let load = |id: u64| -> Result<FrameRecord, Box<dyn std::error::Error + Send + Sync>> {
+        source.load(id).map_err(|e| Box::new(e) as _)
+    };
+    let manifest = write_shards(&job, range.clone(), &load)?;
+    let complete = if full {
+        manifest.save(out.join(MANIFEST_FILE))?;
+        save_record(out, &manifest, config_hash, inputs)?;
+        true
+    } else {
+        manifest.save(out.join(unit_manifest_name(&range)))?;
+        finish_if_complete(out, &expected, &config_hash, &inputs)?
+    };
+    Ok(ShardOutput {
+        manifest,
+        complete,
+        skipped: false,
+    })
+}
+
+fn remove_file(path: &Path) -> Result<(), ShardStageError> {
+    match std::fs::remove_file(path) {
+        Ok(()) => Ok(()),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(()),
+        Err(source) => Err(ShardStageError::Io {
+            path: path.to_path_buf(),
+            source,
+        }),
+    }
+}
+
+fn save_record(
+    out: &Path,
+    manifest: &Manifest,
+    config_hash: String,
+    inputs: BTreeMap<String, String>,
+) -> Result<(), ShardStageError> {
+    let mut record = StageRecord::new(STAGE, config_hash, inputs);
+    // The writer hashed every shard as it wrote it.
+    for s in &manifest.shards {
+        record.outputs.insert(s.file.clone(), s.sha256.clone());
+    }
+    record.add_output(out, MANIFEST_FILE)?;
+    record.save(out)?;
+    Ok(())
+}
+
+/// Merges the unit manifests of this run found in `out`; when they cover the whole
+/// plan, writes `manifest.json` and `stage.json`.
+fn finish_if_complete(
+    out: &Path,
+    expected: &Manifest,
+    config_hash: &str,
+    inputs: &BTreeMap<String, String>,
+) -> Result<bool, ShardStageError> {
+    let io = |source| ShardStageError::Io {
+        path: out.to_path_buf(),
+        source,
+    };
+    let mut names = Vec::new();
+    for entry in std::fs::read_dir(out).map_err(io)? {
+        let name = entry
+            .map_err(io)?
+            .file_name()
+            .to_string_lossy()
+            .into_owned();
+        if name.starts_with("manifest.") && name.ends_with(".json") && name != MANIFEST_FILE {
+            names.push(name);
+        }
+    }
+    names.sort();
+    let mut units = Vec::new();
+    for name in names {
+        if let Some(m) = load_manifest(&out.join(&name))?
+            && unit_up_to_date(&m, out, expected)?
+        {
+            units.push(m);
+        }
+    }
+    if units.is_empty() {
+        return Ok(false);
+    }
+    let merged = Manifest::merge(&units)?;
+    if !merged.is_complete() {
+        return Ok(false);
+    }
+    merged.save(out.join(MANIFEST_FILE))?;
+    save_record(out, &merged, config_hash.to_string(), inputs.clone())?;
+    Ok(true)
+}

@@ -1,0 +1,271 @@
+//! The import stage on the analytic scene: exact labels, endpoint order, pose report,
+//! name mapping, determinism and stage records.
+
+mod common;
+
+use common::{Scene, SceneOptions, folder_bytes};
+use datasets::frames::Split;
+use geometry::{Vector2, Vector3};
+use labels::import::{self, ImportConfig};
+use labels::{LabelTables, NameMapping, PoseSource};
+use std::collections::HashMap;
+
+fn import(scene: &Scene, config: &ImportConfig, out: &str) -> (import::ImportOutput, LabelTables) {
+    let out = scene.out(out);
+    let o = import::run(
+        config,
+        &scene.frames_path,
+        &scene.model_dir,
+        &scene.limap_dir,
+        &out,
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    (o, LabelTables::read(&out).unwrap())
+}
+
+#[test]
+fn import_recovers_every_label_exactly() {
+    let scene = Scene::build(&SceneOptions::default());
+    let (out, t) = import(&scene, &ImportConfig::default(), "labels");
+    let train = scene.train_frames();
+    assert_eq!(t.poses.len(), train.len());
+    // Every keypoint of every registered image, in order, with its point's xyz.
+    let mut expected_points = 0;
+    for (k, f) in train.iter().enumerate() {
+        let image = &scene.model.images[k];
+        assert_eq!(image.name, f.name);
+        let rows: Vec<_> = t.points.iter().filter(|r| r.frame_id == f.id).collect();
+        assert_eq!(rows.len(), image.points2d.len());
+        for (i, (r, p)) in rows.iter().zip(&image.points2d).enumerate() {
+            assert_eq!(r.kp_index as usize, i);
+            assert_eq!(r.xy, p.xy);
+            if p.has_point3d() {
+                assert_eq!(r.point3d_id as u64, p.point3d_id);
+                assert_eq!(r.xyz, Some(scene.gt_points[&p.point3d_id]));
+                expected_points += 1;
+            } else {
+                assert_eq!((r.point3d_id, r.xyz), (-1, None));
+            }
+        }
+        // Segments: the file's rows, in order; stray detections have no track.
+        let lid = k as u32 + 1;
+        let segs = &scene.segments[&lid].lines;
+        let rows: Vec<_> = t.lines.iter().filter(|r| r.frame_id == f.id).collect();
+        assert_eq!(rows.len(), segs.len());
+        for (i, (r, s)) in rows.iter().zip(segs).enumerate() {
+            assert_eq!((r.seg_index as usize, r.segment), (i, *s));
+            let track = scene
+                .tracks
+                .iter()
+                .position(|t| t.supports().any(|x| x == (lid, i as u32)));
+            match track {
+                Some(ti) => {
+                    assert_eq!(r.track_id, ti as i64);
+                    let gt = scene.gt_tracks[ti];
+                    let rev = scene.reversed[&(lid, i as u32)];
+                    assert_eq!(r.swapped, rev, "frame {} segment {i}", f.id);
+                    let want = if rev { [gt[1], gt[0]] } else { gt };
+                    // LIMAP track files hold 10 decimals.
+                    let got = r.endpoints.unwrap();
+                    for (g, w) in got.iter().flatten().zip(want.iter().flatten()) {
+                        assert!((g - w).abs() < 1e-9, "{got:?} vs {want:?}");
+                    }
+                }
+                None => assert_eq!((r.track_id, r.endpoints), (-1, None)),
+            }
+        }
+    }
+    let rep = &out.report;
+    assert_eq!(rep.points.valid, expected_points);
+    assert_eq!(rep.points.keypoints, t.points.len());
+    assert_eq!(rep.points.without_point3d, 3 * train.len());
+    assert_eq!(rep.points.points3d_observed, scene.gt_points.len());
+    assert_eq!(rep.lines.in_no_track, 2 * train.len());
+    assert_eq!(rep.lines.valid, scene.reversed.len());
+    assert_eq!(
+        rep.lines.swapped,
+        scene.reversed.values().filter(|&&r| r).count()
+    );
+    assert_eq!(rep.lines.aligned_by_projection, rep.lines.valid);
+    assert_eq!(rep.limap.tracks_used, scene.tracks.len());
+    assert!(rep.warnings.is_empty(), "{:?}", rep.warnings);
+    print!("{}", rep.table());
+}
+
+#[test]
+fn first_endpoint_projects_onto_the_segment_start() {
+    // Checked by projection (not through the construction's bookkeeping), with noisy
+    // endpoints: the order must still follow each detection.
+    let scene = Scene::build(&SceneOptions {
+        noise_sigma_m: 0.02,
+        ..Default::default()
+    });
+    let (_, t) = import(&scene, &ImportConfig::default(), "labels");
+    let poses: HashMap<u32, _> = t.poses.iter().map(|p| (p.frame_id, p)).collect();
+    let mut checked = 0;
+    for r in t.lines.iter().filter(|r| r.endpoints.is_some()) {
+        let v = poses[&r.frame_id];
+        let e = r.endpoints.unwrap();
+        let px = |x: [f64; 3]| {
+            v.camera
+                .project(&v.pose.transform_point(&Vector3::from(x)))
+                .unwrap()
+        };
+        let s = Vector2::new(r.segment[0], r.segment[1]);
+        let en = Vector2::new(r.segment[2], r.segment[3]);
+        assert!((px(e[0]) - s).norm() < (px(e[1]) - s).norm());
+        assert!((px(e[1]) - en).norm() < (px(e[0]) - en).norm());
+        checked += 1;
+    }
+    assert!(checked > 50, "{checked}");
+}
+
+#[test]
+fn pose_disagreement_is_reported_and_the_pose_source_chosen() {
+    let mut scene = Scene::build(&SceneOptions::default());
+    // Move the SfM pose of the third training frame by 3 cm and 0.5 degrees.
+    let f = scene.train_frames()[2].clone();
+    let im = &mut scene.model.images[2];
+    let moved = geometry::Pose::new(
+        geometry::UnitQuaternion::from_axis_angle(&Vector3::z_axis(), 0.5f64.to_radians())
+            * f.pose.rotation,
+        Vector3::zeros(),
+    );
+    // Same centre moved by (0.03, 0, 0).
+    let centre = f.pose.centre() + Vector3::new(0.03, 0.0, 0.0);
+    let moved = geometry::Pose::new(moved.rotation, -(moved.rotation * centre));
+    im.qvec = moved.qvec();
+    im.tvec = moved.tvec();
+    scene.model.frames.clear();
+    scene.model.rigs.clear();
+    scene.write_model();
+
+    let (out, t) = import(&scene, &ImportConfig::default(), "sfm");
+    let d = &out.report.pose_disagreement;
+    assert!((d.translation_m.max - 0.03).abs() < 1e-9, "{:?}", d);
+    assert!((d.rotation_deg.max - 0.5).abs() < 1e-9, "{:?}", d);
+    assert!(d.translation_m.median < 1e-12);
+    assert!(d.worst_frame.as_deref().unwrap().starts_with(&f.name));
+    assert_eq!(t.pose_source, PoseSource::Sfm);
+    let row = t.poses.iter().find(|p| p.frame_id == f.id).unwrap();
+    assert!((row.pose.centre() - centre).norm() < 1e-12);
+
+    let config = ImportConfig {
+        pose_source: PoseSource::Dataset,
+        ..Default::default()
+    };
+    let (_, t) = import(&scene, &config, "dataset");
+    assert_eq!(t.pose_source, PoseSource::Dataset);
+    let row = t.poses.iter().find(|p| p.frame_id == f.id).unwrap();
+    assert_eq!(row.pose, f.pose);
+    assert_eq!(row.camera, f.camera);
+}
+
+#[test]
+fn explicit_name_mappings_join_renamed_models() {
+    let mut scene = Scene::build(&SceneOptions::default());
+    // The model says "frame-000000.color.jpg", LIMAP "/data/box/seq-01/frame-000000.color.png".
+    for im in &mut scene.model.images {
+        im.name = im
+            .name
+            .trim_start_matches("seq-01/")
+            .replace(".png", ".jpg");
+    }
+    for (_, n) in &mut scene.image_list.images {
+        *n = format!("/data/box/{n}");
+    }
+    scene.write_model();
+    scene.write_limap();
+    // The identity mapping refuses: no guessing.
+    let e = import::run(
+        &ImportConfig::default(),
+        &scene.frames_path,
+        &scene.model_dir,
+        &scene.limap_dir,
+        &scene.out("identity"),
+    )
+    .unwrap_err();
+    assert!(!e.problems().is_empty());
+    let config = ImportConfig {
+        model_names: NameMapping {
+            strip_prefix: None,
+            add_prefix: Some("seq-01/".into()),
+            replace_extension: Some((".jpg".into(), ".png".into())),
+        },
+        limap_names: NameMapping {
+            strip_prefix: Some("/data/box/".into()),
+            ..Default::default()
+        },
+        ..Default::default()
+    };
+    let (out, t) = import(&scene, &config, "mapped");
+    assert_eq!(t.poses.len(), scene.train_frames().len());
+    assert_eq!(out.report.points.valid, {
+        let plain = Scene::build(&SceneOptions::default());
+        let (o, _) = import(&plain, &ImportConfig::default(), "plain");
+        o.report.points.valid
+    });
+}
+
+#[test]
+fn same_inputs_give_the_same_bytes_and_reruns_are_skipped() {
+    let scene = Scene::build(&SceneOptions {
+        noise_sigma_m: 0.01,
+        ..Default::default()
+    });
+    let config = ImportConfig::default();
+    let (a, _) = import(&scene, &config, "a");
+    let (b, _) = import(&scene, &config, "b");
+    assert!(!a.skipped && !b.skipped);
+    let (fa, fb) = (folder_bytes(&scene.out("a")), folder_bytes(&scene.out("b")));
+    assert_eq!(
+        fa.keys().collect::<Vec<_>>(),
+        [
+            "import_report.json",
+            "lines.parquet",
+            "points.parquet",
+            "poses.parquet",
+            "stage.json"
+        ]
+    );
+    assert_eq!(fa, fb);
+
+    // Rerun: skipped, same report.
+    let (again, _) = import(&scene, &config, "a");
+    assert!(again.skipped);
+    assert_eq!(again.report, a.report);
+    // A changed configuration, a changed input or a damaged output reruns it.
+    let other = ImportConfig {
+        bounds_tolerance_px: 2.0,
+        ..config.clone()
+    };
+    assert!(!import(&scene, &other, "a").0.skipped);
+    assert!(import(&scene, &other, "a").0.skipped);
+    std::fs::write(scene.out("a").join("lines.parquet"), b"damaged").unwrap();
+    assert!(!import(&scene, &other, "a").0.skipped);
+    let mut scene = scene;
+    scene.tracks[0].line[0][0] += 0.1;
+    scene.write_limap();
+    let (o, t) = import(&scene, &other, "a");
+    assert!(!o.skipped);
+    assert!(t.lines.iter().any(|r| r.track_id == 0));
+    // Frames of the test split never get labels.
+    let test_ids: Vec<u32> = scene
+        .table
+        .frames
+        .iter()
+        .filter(|f| f.split == Split::Test)
+        .map(|f| f.id)
+        .collect();
+    assert!(t.points.iter().all(|r| !test_ids.contains(&r.frame_id)));
+}
+
+#[test]
+fn text_models_import_like_binary_ones() {
+    let scene = Scene::build(&SceneOptions::default());
+    let (_, bin) = import(&scene, &ImportConfig::default(), "bin");
+    std::fs::remove_dir_all(&scene.model_dir).unwrap();
+    colmap::write_text(&scene.model, &scene.model_dir).unwrap();
+    let (_, txt) = import(&scene, &ImportConfig::default(), "txt");
+    assert_eq!(bin, txt);
+}
