@@ -27,6 +27,16 @@ enum Command {
     /// LIMAP line-track folders: summary and consistency checks.
     #[command(subcommand)]
     Limap(commands::limap::Command),
+    /// Render the built-in synthetic room (7-Scenes or Cambridge layout).
+    Synth(commands::synth::Args),
+    /// Stage 1: read a dataset folder into the frames table.
+    Ingest(commands::ingest::Args),
+    /// Stage 2: join a COLMAP model and LIMAP tracks to the frames into label tables.
+    Import(commands::import::Args),
+    /// Stage 3 (optional): move labels onto the depth maps.
+    Refine(commands::refine::Args),
+    /// Stage 4: write label shards (MCAP) and their manifest.
+    Shard(commands::shard::Args),
     /// Absolute pose from 2D-3D point (and line) correspondences.
     Pose(commands::pose::Args),
     /// Benchmarks that print a table (never run as tests).
@@ -40,6 +50,11 @@ fn main() -> std::process::ExitCode {
     let result = match cli.command {
         Command::Colmap(c) => commands::colmap::run(c),
         Command::Limap(c) => commands::limap::run(c),
+        Command::Synth(a) => commands::synth::run(a),
+        Command::Ingest(a) => commands::ingest::run(a),
+        Command::Import(a) => commands::import::run(a),
+        Command::Refine(a) => commands::refine::run(a),
+        Command::Shard(a) => commands::shard::run(a),
         Command::Pose(a) => commands::pose::run(a),
         Command::Bench(c) => commands::bench::run(c),
     };

@@ -23,8 +23,10 @@ fn collect(dir: &Path, out: &mut Vec<PathBuf>) -> std::io::Result<()> {
         let p = e.path();
         if p.is_dir() {
             collect(&p, out)?;
-        } else if matches!(p.extension().and_then(|e| e.to_str()), Some("png" | "jpg" | "jpeg"))
-            && !p.to_string_lossy().contains(".depth.")
+        } else if matches!(
+            p.extension().and_then(|e| e.to_str()),
+            Some("png" | "jpg" | "jpeg")
+        ) && !p.to_string_lossy().contains(".depth.")
         {
             out.push(p);
         }
@@ -41,7 +43,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 .unwrap_or_else(|| PathBuf::from("../shared/data"))
                 .join("7scenes-stairs-mini");
             if !d.is_dir() {
-                bail!("no --images given and no sample frames at {}; try `pl2map synth OUT` and pass --images OUT", d.display());
+                bail!(
+                    "no --images given and no sample frames at {}; try `pl2map synth OUT` and pass --images OUT",
+                    d.display()
+                );
             }
             d
         }
@@ -62,15 +67,34 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let steps = features::bench::step_times(&images, &cfg)?;
     let t1 = features::bench::throughput(&images, &cfg, 1)?;
     let t2 = features::bench::throughput(&images, &cfg, 2)?;
-    println!("front-end benchmark: {} images of {w}x{h} from {}", images.len(), dir.display());
-    println!("mean {:.0} keypoints, {:.0} segments per image (T = {})", steps.mean_keypoints, steps.mean_segments, cfg.samples_per_line);
+    println!(
+        "front-end benchmark: {} images of {w}x{h} from {}",
+        images.len(),
+        dir.display()
+    );
+    println!(
+        "mean {:.0} keypoints, {:.0} segments per image (T = {})",
+        steps.mean_keypoints, steps.mean_segments, cfg.samples_per_line
+    );
     println!();
     println!("| step                                   | ms / image |");
     println!("|----------------------------------------|-----------:|");
-    println!("| SIFT detect (top {:>4})                 | {:>10.1} |", cfg.sift.max_keypoints, steps.sift_detect_ms);
-    println!("| SIFT describe at keypoints             | {:>10.1} |", steps.sift_describe_ms);
-    println!("| LSD                                    | {:>10.1} |", steps.lsd_ms);
-    println!("| line sampling + descriptors            | {:>10.1} |", steps.line_sampling_ms);
+    println!(
+        "| SIFT detect (top {:>4})                 | {:>10.1} |",
+        cfg.sift.max_keypoints, steps.sift_detect_ms
+    );
+    println!(
+        "| SIFT describe at keypoints             | {:>10.1} |",
+        steps.sift_describe_ms
+    );
+    println!(
+        "| LSD                                    | {:>10.1} |",
+        steps.lsd_ms
+    );
+    println!(
+        "| line sampling + descriptors            | {:>10.1} |",
+        steps.line_sampling_ms
+    );
     println!();
     println!("| threads | images/s |");
     println!("|--------:|---------:|");

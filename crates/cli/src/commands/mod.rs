@@ -3,8 +3,13 @@ pub mod bench_colmap;
 pub mod bench_features;
 pub mod bench_pose;
 pub mod colmap;
+pub mod import;
+pub mod ingest;
 pub mod limap;
 pub mod pose;
+pub mod refine;
+pub mod shard;
+pub mod synth;
 
 /// Logs go to stderr through `tracing`; `RUST_LOG` overrides the level.
 pub fn init_logging(quiet: bool) {
