@@ -2,6 +2,7 @@
 //! parallel and write the chosen layout atomically.
 
 use super::error::{Result, SynthError};
+use super::gt;
 use super::layout::{
     Layout, NvmCamera, Staging, cambridge_name, cambridge_nvm_name, encode_png_depth,
     encode_png_rgb, format_cambridge_split, format_nvm, format_pose_txt, format_split_file,
@@ -38,6 +39,12 @@ pub struct SynthConfig {
     pub overwrite: bool,
     /// Show a progress bar (it is hidden anyway when stderr is not a terminal).
     pub progress: bool,
+    /// Also write the COLMAP and LIMAP ground truth of the training frames to
+    /// `<scene>/sfm_gt/` (see [`super::gt`]); off by default in the library, on in the CLI.
+    pub ground_truth: bool,
+    /// RMS 3D error (cm) added to the written labels; the exact ones go to
+    /// `sfm_gt/exact.json` (see [`super::gt::noise`]).
+    pub label_noise_cm: f64,
 }
 
 impl Default for SynthConfig {
@@ -51,6 +58,8 @@ impl Default for SynthConfig {
             tiny: false,
             overwrite: false,
             progress: true,
+            ground_truth: false,
+            label_noise_cm: 0.0,
         }
     }
 }
@@ -138,6 +147,8 @@ pub struct SynthOutput {
     pub layout: Layout,
     pub dataset: SynthDataset,
     pub frames: Vec<FrameInfo>,
+    /// Counts of the ground truth, when it was written.
+    pub ground_truth: Option<gt::GtSummary>,
 }
 
 /// Builds, renders and writes the synthetic dataset. Same config (seed included) =>
@@ -151,6 +162,14 @@ pub fn generate(cfg: &SynthConfig) -> Result<SynthOutput> {
             "scene name {:?} must be a plain folder name",
             cfg.scene_name
         )));
+    }
+    let gt_cfg = gt::GtConfig {
+        label_noise_cm: cfg.label_noise_cm,
+        ..gt::GtConfig::default()
+    };
+    let gt_err = |e: gt::GtError| SynthError::io(gt::GT_DIR, std::io::Error::other(e));
+    if cfg.ground_truth {
+        gt_cfg.validate().map_err(gt_err)?;
     }
     let dataset = SynthDataset::new(cfg.frames, cfg.seed, cfg.tiny)?;
     let staging = Staging::new(&cfg.out, &cfg.scene_name, cfg.overwrite)?;
@@ -178,7 +197,7 @@ pub fn generate(cfg: &SynthConfig) -> Result<SynthOutput> {
         bar.set_style(style);
     }
 
-    let frames: Vec<FrameInfo> = (0..dataset.len())
+    let rendered: Vec<(FrameInfo, Option<gt::FrameObservations>)> = (0..dataset.len())
         .into_par_iter()
         .map(|i| {
             let f = dataset.frames[i];
@@ -223,11 +242,37 @@ pub fn generate(cfg: &SynthConfig) -> Result<SynthOutput> {
                     }
                 }
             };
+            let obs = if cfg.ground_truth && f.split == Split::Train {
+                Some(gt::observe_frame(&dataset, i, &r.rgb, &gt_cfg).map_err(gt_err)?)
+            } else {
+                None
+            };
             bar.inc(1);
-            Ok(info)
+            Ok((info, obs))
         })
         .collect::<Result<Vec<_>>>()?;
     bar.finish_and_clear();
+    let mut gt_images = Vec::new();
+    let mut gt_obs = Vec::new();
+    let mut frames = Vec::with_capacity(rendered.len());
+    for (info, obs) in rendered {
+        if let Some(o) = obs {
+            gt_images.push(gt::GtImage {
+                image_id: gt_images.len() as u32 + 1,
+                frame: info.index,
+                name: info.name.clone(),
+            });
+            gt_obs.push(o);
+        }
+        frames.push(info);
+    }
+    let ground_truth = if cfg.ground_truth {
+        let labels = gt::build(&dataset, gt_images, gt_obs, &gt_cfg).map_err(gt_err)?;
+        gt::write(staging.path(), &dataset, &labels, &gt_cfg).map_err(gt_err)?;
+        Some(labels.summary())
+    } else {
+        None
+    };
 
     match cfg.layout {
         Layout::SevenScenes => {
@@ -270,5 +315,6 @@ pub fn generate(cfg: &SynthConfig) -> Result<SynthOutput> {
         layout: cfg.layout,
         dataset,
         frames,
+        ground_truth,
     })
 }

@@ -15,6 +15,7 @@
 mod build;
 pub mod error;
 pub mod generate;
+pub mod gt;
 pub mod layout;
 pub mod patterns;
 pub mod preview;
