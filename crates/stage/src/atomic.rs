@@ -24,6 +24,7 @@ impl AtomicFile {
                 .map(|n| n.to_string_lossy().into_owned())
                 .unwrap_or_default()
         );
+        remove_stale_temps(&dir, &prefix)?;
         let mut builder = tempfile::Builder::new();
         builder.prefix(&prefix).suffix(".tmp");
         // tempfile creates 0600 files; outputs are ordinary files (0666 minus umask).
@@ -54,6 +55,28 @@ impl AtomicFile {
         })?;
         Ok(())
     }
+}
+
+/// Removes the `.<name>.*.tmp` files a killed earlier writer of the same destination
+/// left behind, so that a rerun ends with exactly the files of a clean run. (Two live
+/// writers of one destination are already a conflict: the last rename would win.)
+fn remove_stale_temps(dir: &Path, prefix: &str) -> Result<(), StageError> {
+    let entries = std::fs::read_dir(dir).map_err(io_err(dir))?;
+    for e in entries {
+        let e = e.map_err(io_err(dir))?;
+        let name = e.file_name();
+        let name = name.to_string_lossy();
+        if name.starts_with(prefix) && name.ends_with(".tmp") && name.len() > prefix.len() + 4 {
+            let p = e.path();
+            match std::fs::remove_file(&p) {
+                Ok(()) => {}
+                // Gone meanwhile: fine.
+                Err(err) if err.kind() == std::io::ErrorKind::NotFound => {}
+                Err(err) => return Err(io_err(&p)(err)),
+            }
+        }
+    }
+    Ok(())
 }
 
 impl Write for AtomicFile {
@@ -107,5 +130,21 @@ mod tests {
                 assert_eq!(mode, 0o666 & !umask, "mode {mode:o} with umask {umask:o}");
             }
         }
+    }
+
+    #[test]
+    fn a_rewrite_removes_what_a_killed_writer_left() {
+        let dir = tempfile::tempdir().unwrap();
+        // What a writer killed before `commit` leaves: `.<name>.<random>.tmp`.
+        std::fs::write(dir.path().join(".out.bin.XYZ123.tmp"), b"partial").unwrap();
+        // Another destination's temp file is not touched.
+        std::fs::write(dir.path().join(".other.bin.ABC.tmp"), b"x").unwrap();
+        write_atomic(dir.path().join("out.bin"), b"done").unwrap();
+        let mut names: Vec<_> = std::fs::read_dir(dir.path())
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        names.sort();
+        assert_eq!(names, [".other.bin.ABC.tmp", "out.bin"]);
     }
 }
