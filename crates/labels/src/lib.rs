@@ -14,6 +14,7 @@
 //! Rows are sorted by frame id, then keypoint / segment index, so the same inputs give
 //! the same bytes.
 
+pub mod ablation;
 pub mod align;
 pub mod depth;
 pub mod import;

@@ -13,19 +13,35 @@ use rayon::prelude::*;
 use std::collections::{BTreeMap, HashMap};
 use std::ops::Range;
 
-/// The back-projected samples of one support, or None when fewer than
-/// `line_min_valid_samples` had valid depth.
-type SupportSamples = Option<Vec<Vector3<f64>>>;
+/// The back-projected samples of one support: candidate sets, the depth read on the
+/// segment first, then (for segments on an occluding edge) the depth of each side
+/// extrapolated to the segment. None when no set had `line_min_valid_samples` valid.
+type SupportSamples = Option<Vec<Vec<Vector3<f64>>>>;
 
 pub(crate) struct FrameSamples {
     supports: Vec<(usize, SupportSamples)>,
 }
+
+/// Offset (pixels) of the side samples from the segment, and twice that for the
+/// extrapolation. Rendered or sensor depth on an occluding edge mixes both surfaces within
+/// about a pixel; 1.5 px is clear of that.
+const SIDE_OFFSET_PX: f64 = 1.5;
 
 fn sample_count(config: &RefineConfig, seg: &[f64; 4]) -> usize {
     let len = ((seg[2] - seg[0]).powi(2) + (seg[3] - seg[1]).powi(2)).sqrt();
     let n = (len / config.line_sample_spacing_px).ceil() + 1.0;
     // `as` saturates; the clamp bounds it by the configured maximum.
     (n as usize).clamp(config.line_min_samples, config.line_max_samples)
+}
+
+/// Depth at `px` as seen from one side of an edge: read at 1 and 2 offsets along `normal`
+/// and extrapolated back to `px` linearly in inverse depth (exact for a planar surface,
+/// whose inverse depth is affine in the pixel coordinates).
+fn side_depth(depth: &DepthMap, px: &Vector2<f64>, normal: &Vector2<f64>) -> Option<f64> {
+    let d1 = depth.sample(&(px + normal * SIDE_OFFSET_PX))?;
+    let d2 = depth.sample(&(px + normal * (2.0 * SIDE_OFFSET_PX)))?;
+    let inv = 2.0 / d1 - 1.0 / d2;
+    (inv > 0.0).then(|| 1.0 / inv)
 }
 
 pub(crate) fn sample_frame(
@@ -48,19 +64,40 @@ pub(crate) fn sample_frame(
         }
         let s = &row.segment;
         let n = sample_count(config, s);
-        let mut pts = Vec::with_capacity(n);
+        let dir = Vector2::new(s[2] - s[0], s[3] - s[1]);
+        let normal = Vector2::new(-dir.y, dir.x) / dir.norm().max(f64::MIN_POSITIVE);
+        // On the segment, then each side of it.
+        let mut sets: [Vec<Vector3<f64>>; 3] = Default::default();
+        let mut depth_sum = [0.0f64; 3];
         for k in 0..n {
             let t = k as f64 / (n - 1) as f64;
             let px = Vector2::new(s[0] + t * (s[2] - s[0]), s[1] + t * (s[3] - s[1]));
-            if let Some(w) = depth
-                .sample(&px)
-                .and_then(|d| back_project(&view.camera, &view.pose, &px, d))
-            {
-                pts.push(w);
+            let depths = [
+                depth.sample(&px),
+                side_depth(depth, &px, &normal),
+                side_depth(depth, &px, &-normal),
+            ];
+            for (j, d) in depths.into_iter().enumerate() {
+                if let Some((d, w)) =
+                    d.and_then(|d| Some((d, back_project(&view.camera, &view.pose, &px, d)?)))
+                {
+                    sets[j].push(w);
+                    depth_sum[j] += d;
+                }
             }
         }
-        let ok = pts.len() >= config.line_min_valid_samples;
-        supports.push((i, ok.then_some(pts)));
+        // An occluding edge belongs to the nearer surface: try that side first.
+        let mean = |j: usize| depth_sum[j] / sets[j].len().max(1) as f64;
+        if sets[2].len() >= config.line_min_valid_samples
+            && (sets[1].len() < config.line_min_valid_samples || mean(2) < mean(1))
+        {
+            sets.swap(1, 2);
+        }
+        let sets: Vec<Vec<Vector3<f64>>> = sets
+            .into_iter()
+            .filter(|p| p.len() >= config.line_min_valid_samples)
+            .collect();
+        supports.push((i, (!sets.is_empty()).then_some(sets)));
     }
     FrameSamples { supports }
 }
@@ -94,24 +131,30 @@ fn refine_track(
     let thr = config.line_inlier_threshold_m;
     let mut rng = ChaCha8Rng::seed_from_u64(seed_of(config.seed, key));
     let mut outcomes: Vec<(usize, Outcome)> = Vec::with_capacity(members.len());
-    // Accepted supports: (row, inlier samples).
-    let mut accepted: Vec<(usize, Vec<Vector3<f64>>)> = Vec::new();
+    // Accepted supports: (row, inlier samples of its first fitting set, all its sets).
+    let mut accepted: Vec<(usize, Vec<Vector3<f64>>, &[Vec<Vector3<f64>>])> = Vec::new();
     for &i in members {
         match observed.get(&i) {
             None => {}
             Some(None) => outcomes.push((i, Outcome::NoDepth)),
-            Some(Some(pts)) => match ransac_line(pts, thr, config.ransac_iterations, &mut rng) {
-                Some(fit) if ratio_ok(config, fit.inlier_count(), pts.len()) => {
-                    let inl = pts
-                        .iter()
-                        .zip(&fit.inliers)
-                        .filter(|(_, b)| **b)
-                        .map(|(p, _)| *p)
-                        .collect();
-                    accepted.push((i, inl));
+            Some(Some(sets)) => {
+                // The first candidate set whose samples lie on one line: the depth on the
+                // segment, else one side of an occluding edge.
+                let fitted = sets.iter().find_map(|pts| {
+                    let fit = ransac_line(pts, thr, config.ransac_iterations, &mut rng)?;
+                    ratio_ok(config, fit.inlier_count(), pts.len()).then(|| {
+                        pts.iter()
+                            .zip(&fit.inliers)
+                            .filter(|(_, b)| **b)
+                            .map(|(p, _)| *p)
+                            .collect::<Vec<_>>()
+                    })
+                });
+                match fitted {
+                    Some(inl) => accepted.push((i, inl, sets)),
+                    None => outcomes.push((i, Outcome::Fit)),
                 }
-                _ => outcomes.push((i, Outcome::Fit)),
-            },
+            }
         }
     }
     let drop_rest = |mut outcomes: Vec<(usize, Outcome)>, why: Outcome| {
@@ -137,24 +180,34 @@ fn refine_track(
     // samples are on it.
     let union: Vec<Vector3<f64>> = accepted
         .iter()
-        .flat_map(|(_, p)| p.iter().copied())
+        .flat_map(|(_, p, _)| p.iter().copied())
         .collect();
     let Some(merged) = ransac_line(&union, thr, config.ransac_iterations, &mut rng) else {
         return drop_rest(outcomes, Outcome::Disagree);
     };
     let mut kept_points = Vec::new();
     let mut kept_rows = Vec::new();
-    for (i, pts) in &accepted {
-        let on: Vec<Vector3<f64>> = pts
+    for (i, _, sets) in &accepted {
+        // Judged on the merged line, a support's best set may be another side than the
+        // one it fitted alone (a segment just off an occluding edge reads the background).
+        let best = sets
             .iter()
-            .filter(|p| merged.line.distance(p) <= thr)
-            .copied()
-            .collect();
-        if ratio_ok(config, on.len(), pts.len()) {
-            kept_points.extend(on);
-            kept_rows.push(*i);
-        } else {
-            outcomes.push((*i, Outcome::Disagree));
+            .map(|pts| {
+                let on: Vec<Vector3<f64>> = pts
+                    .iter()
+                    .filter(|p| merged.line.distance(p) <= thr)
+                    .copied()
+                    .collect();
+                (on, pts.len())
+            })
+            .filter(|(on, n)| ratio_ok(config, on.len(), *n))
+            .max_by_key(|(on, _)| on.len());
+        match best {
+            Some((on, _)) => {
+                kept_points.extend(on);
+                kept_rows.push(*i);
+            }
+            None => outcomes.push((*i, Outcome::Disagree)),
         }
     }
     if kept_rows.is_empty() {

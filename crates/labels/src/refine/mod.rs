@@ -23,8 +23,13 @@
 //! times the size of 5 pixels at the median depth, about 1.4 cm at 2 m for 7-Scenes,
 //! so the default is 2 cm) and accepted when at least
 //! [`RefineConfig::line_min_inlier_ratio`] (90 %, as upstream) of its valid samples are
-//! inliers. The accepted supports of a track are merged: a RANSAC line over all their
-//! inlier samples, supports with under 90 % of their samples on it rejected, a
+//! inliers. A segment on an occluding edge reads a mix of both surfaces, so each side's
+//! depth (read 1.5 and 3 px off the segment, extrapolated to it in inverse depth, exact
+//! for planes) is a second and third candidate, the nearer side first; without them
+//! ~15 % of the synthetic scene's line labels were dropped, with them ~2 %.
+//! The accepted supports of a track are merged: a RANSAC line over all their
+//! inlier samples, supports none of whose candidate sets has 90 % of its samples on it
+//! rejected, a
 //! least-squares line over the rest; the new endpoints span the projections of those
 //! samples on it. Every label of the track gets these endpoints, ordered to follow its
 //! own 2D segment; labels of rejected supports are dropped.
