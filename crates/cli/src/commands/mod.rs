@@ -2,6 +2,7 @@ pub mod bench;
 pub mod bench_colmap;
 pub mod bench_features;
 pub mod bench_pose;
+pub mod bench_stages;
 pub mod colmap;
 pub mod import;
 pub mod ingest;

@@ -3,6 +3,8 @@
 //! `OUT/stage.json`).
 
 use anyhow::Context;
+use labels::LabelTables;
+use labels::ablation::{self, ExactLabels};
 use labels::refine::{self, PointSampling, RefineConfig};
 use std::path::PathBuf;
 
@@ -41,6 +43,10 @@ pub struct Args {
     /// Print the report as JSON instead of a table.
     #[arg(long)]
     pub json: bool,
+    /// Exact labels (the synthetic scene's `sfm_gt/exact.json`): also print the
+    /// ablation, the 3D label error before and after refinement.
+    #[arg(long)]
+    pub exact: Option<PathBuf>,
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
@@ -72,6 +78,15 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         };
         println!("{} ({state})", args.out.display());
         print!("{}", output.report.table());
+    }
+    if let Some(exact) = &args.exact {
+        let exact = ExactLabels::read(exact)?;
+        let before = LabelTables::read(&args.labels)?;
+        let after = LabelTables::read(&args.out)?;
+        print!(
+            "{}",
+            ablation::table(&ablation::compare(&exact, &before, &after)?)
+        );
     }
     Ok(())
 }
