@@ -90,6 +90,36 @@ fn step_edge_segment_lies_on_the_pixel_boundary() {
 }
 
 #[test]
+fn segments_stay_inside_the_image() {
+    // Edges that run into every border (LSD's refinement can place endpoints past it),
+    // on the textured images and on slanted half-planes.
+    let mut imgs: Vec<GrayImage> = (0..6).map(|i| textured(320, 240, 100 + i)).collect();
+    for k in 0..6u32 {
+        let a = 0.3 + 0.45 * k as f64;
+        imgs.push(GrayImage::from_fn(320, 240, |x, y| {
+            let v = (x as f64 - 160.0) * a.cos() + (y as f64 - 120.0) * a.sin();
+            Luma([if v < 0.0 { 30 } else { 220 }])
+        }));
+    }
+    let mut near_border = 0;
+    for img in &imgs {
+        let (w, h) = (img.width() as f64, img.height() as f64);
+        for s in detect_segments(img, &LsdConfig::default()).unwrap() {
+            for p in [[s[0], s[1]], [s[2], s[3]]] {
+                assert!(
+                    p[0] >= 0.0 && p[1] >= 0.0 && p[0] <= w && p[1] <= h,
+                    "segment {s:?} leaves the {w}x{h} image"
+                );
+                if p[0] < 2.0 || p[1] < 2.0 || p[0] > w - 2.0 || p[1] > h - 2.0 {
+                    near_border += 1;
+                }
+            }
+        }
+    }
+    assert!(near_border > 0, "no segment reached the border: the test tests nothing");
+}
+
+#[test]
 fn extraction_is_deterministic_and_thread_count_independent() {
     let imgs: Vec<GrayImage> = (0..4).map(|i| textured(320, 240, i)).collect();
     let cfg = FrontEndConfig::default();
