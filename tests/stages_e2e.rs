@@ -99,6 +99,18 @@ fn shard_cmd(p: &Prepared, out: &Path) -> Command {
     c
 }
 
+fn refine_cmd(p: &Prepared, out: &Path) -> Command {
+    let mut c = pl2map();
+    c.arg("refine")
+        .arg("--frames")
+        .arg(&p.frames)
+        .arg("--labels")
+        .arg(&p.labels)
+        .arg("--out")
+        .arg(out);
+    c
+}
+
 fn mcap_files(dir: &Path) -> Vec<PathBuf> {
     let mut v: Vec<PathBuf> = std::fs::read_dir(dir)
         .map(|r| r.filter_map(|e| e.ok().map(|e| e.path())).collect())
@@ -189,19 +201,7 @@ fn killed_shard_run_reruns_to_the_same_manifest() {
 fn refine_then_shard_on_the_synthetic_scene() {
     let p = prepare();
     let refined = p.root.join("refined");
-    let out = ok(
-        pl2map()
-            .arg("refine")
-            .arg("--frames")
-            .arg(&p.frames)
-            .arg("--labels")
-            .arg(&p.labels)
-            .arg("--out")
-            .arg(&refined)
-            .output()
-            .unwrap(),
-        "refine",
-    );
+    let out = ok(refine_cmd(&p, &refined).output().unwrap(), "refine");
     assert!(out.contains("points") && out.contains("lines"), "{out}");
     let shards = p.root.join("shards");
     let mut c = pl2map();
@@ -226,14 +226,7 @@ fn refinement_removes_label_noise_on_the_tiny_scene() {
     let refined = p.root.join("refined");
     let exact = p.root.join("data/synthroom/sfm_gt/exact.json");
     let printed = ok(
-        pl2map()
-            .arg("refine")
-            .arg("--frames")
-            .arg(&p.frames)
-            .arg("--labels")
-            .arg(&p.labels)
-            .arg("--out")
-            .arg(&refined)
+        refine_cmd(&p, &refined)
             .arg("--exact")
             .arg(&exact)
             .output()

@@ -100,13 +100,16 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 
     // One untimed pass warms the page cache and yields the inputs of the later stages.
     let frames = ingest::run(&ingest_cfg, &frames_dir)?;
-    import::run(
-        &ImportConfig::default(),
-        &frames.frames_path,
-        &model,
-        &limap,
-        &labels_dir,
-    )?;
+    let run_import = || {
+        import::run(
+            &ImportConfig::default(),
+            &frames.frames_path,
+            &model,
+            &limap,
+            &labels_dir,
+        )
+    };
+    run_import()?;
     let paths: Vec<PathBuf> = frames.table.frames.iter().map(|f| f.path.clone()).collect();
     let n = paths.len();
     decode_all(&paths)?;
@@ -128,13 +131,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             name: "import",
             seconds: best_of(args.repeat, || {
                 fresh(&labels_dir)?;
-                import::run(
-                    &ImportConfig::default(),
-                    &frames.frames_path,
-                    &model,
-                    &limap,
-                    &labels_dir,
-                )?;
+                run_import()?;
                 Ok(())
             })?,
         },
