@@ -1,3 +1,31 @@
-//! The trainer of pl2map-rs.
+//! The trainer of pl2map-rs (`pl2map train`) and the predictor of trained networks.
+//!
+//! - [`stream`]: frames from shard files, seeded shuffle buffer across shards, prefetched
+//!   on a background thread; the order is a pure function of the seed and the epoch.
+//! - [`augment`]: brightness, contrast, scale, rotation about the principal point; the
+//!   keypoints, segments, intrinsics and pose follow the image (specs/pl2map.md section 5).
+//! - [`sample`]: shard frame (+ augmentation) -> [`model::Sample`], descriptors re-sampled
+//!   on the augmented image, per-sample limits.
+//! - [`trainer`]: the loop (Adam, learning rate halved k times), atomic checkpoints with an
+//!   exact `--resume`, `--init` warm starts, metrics CSV, progress bar, loss plot.
+//! - [`predict`]: [`Predictor`], the front-end + network on one query image.
 
 pub mod augment;
+pub mod checkpoint;
+pub mod config;
+pub mod error;
+pub mod metrics;
+pub mod plot;
+pub mod predict;
+pub mod sample;
+pub mod seeds;
+pub mod stream;
+#[cfg(test)]
+mod testutil;
+pub mod trainer;
+
+pub use config::TrainConfig;
+pub use error::TrainError;
+pub use predict::{ImagePrediction, PredictedLine, PredictedPoint, Predictor};
+pub use sample::Limits;
+pub use trainer::{MeanLosses, RunOptions, TrainSummary, train, train_on};

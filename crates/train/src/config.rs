@@ -1,0 +1,187 @@
+//! The training configuration (TOML-friendly; every field has a default) and the
+//! learning-rate schedule.
+
+use crate::augment::AugmentConfig;
+use crate::error::TrainError;
+use crate::sample::Limits;
+use features::FrontEndConfig;
+use model::{LossConfig, ModelConfig};
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct TrainConfig {
+    /// The network (D must be the front-end's descriptor size, 128 for SIFT).
+    pub model: ModelConfig,
+    pub loss: LossConfig,
+    /// The front-end: descriptors at training positions, and the whole detection path
+    /// of the predictor (stored in every checkpoint so both sides agree).
+    pub front_end: FrontEndConfig,
+    /// Keypoints the predictor keeps per query image (top-K by SIFT response).
+    pub query_max_keypoints: usize,
+    /// One iteration = one image.
+    pub iterations: u64,
+    pub learning_rate: f64,
+    /// The learning rate is halved this many times, evenly over the iterations.
+    pub lr_halvings: u32,
+    /// Write a checkpoint every N iterations (and always at the end).
+    pub checkpoint_every: u64,
+    pub seed: u64,
+    pub augment: AugmentConfig,
+    pub limits: Limits,
+    /// Frames in the stream's shuffle buffer.
+    pub shuffle_buffer: usize,
+    /// Prepared samples kept ready by the background thread.
+    pub prefetch: usize,
+}
+
+impl Default for TrainConfig {
+    fn default() -> Self {
+        TrainConfig {
+            model: ModelConfig::sift(),
+            loss: LossConfig::indoor(),
+            front_end: FrontEndConfig::default(),
+            query_max_keypoints: 2048,
+            iterations: 10_000,
+            learning_rate: 3e-4,
+            lr_halvings: 7,
+            checkpoint_every: 1000,
+            seed: 0,
+            augment: AugmentConfig::default(),
+            limits: Limits::default(),
+            shuffle_buffer: 64,
+            prefetch: 4,
+        }
+    }
+}
+
+impl TrainConfig {
+    pub fn from_toml_file(path: &Path) -> Result<Self, TrainError> {
+        let text = std::fs::read_to_string(path).map_err(|e| TrainError::ConfigFile {
+            path: path.to_path_buf(),
+            reason: e.to_string(),
+        })?;
+        let cfg: TrainConfig = toml::from_str(&text).map_err(|e| TrainError::ConfigFile {
+            path: path.to_path_buf(),
+            reason: e.to_string(),
+        })?;
+        cfg.validate()?;
+        Ok(cfg)
+    }
+
+    pub fn to_toml(&self) -> String {
+        // Every field is a plain table or value: serialisation cannot fail.
+        toml::to_string_pretty(self).unwrap_or_default()
+    }
+
+    pub fn validate(&self) -> Result<(), TrainError> {
+        let bad = |m: String| Err(TrainError::Config(m));
+        self.model.validate()?;
+        self.loss.validate()?;
+        self.front_end.validate()?;
+        if self.model.descriptor_dim != features::SIFT_DIM {
+            return bad(format!(
+                "model.descriptor_dim is {} but the front-end's SIFT descriptors have {}",
+                self.model.descriptor_dim,
+                features::SIFT_DIM
+            ));
+        }
+        if self.model.line_tokens != self.front_end.samples_per_line {
+            return bad(format!(
+                "model.line_tokens ({}) must equal front_end.samples_per_line ({})",
+                self.model.line_tokens, self.front_end.samples_per_line
+            ));
+        }
+        if self.iterations == 0 {
+            return bad("iterations must be at least 1".into());
+        }
+        if !(self.learning_rate.is_finite() && self.learning_rate > 0.0) {
+            return bad(format!(
+                "learning_rate must be positive, got {}",
+                self.learning_rate
+            ));
+        }
+        if self.checkpoint_every == 0 {
+            return bad("checkpoint_every must be at least 1".into());
+        }
+        let a = &self.augment;
+        let in_range = (0.0..=1.0).contains(&a.probability)
+            && a.scale_min > 0.0
+            && a.scale_min <= a.scale_max
+            && a.scale_max.is_finite()
+            && a.brightness >= 0.0
+            && a.contrast >= 0.0
+            && a.max_rotation_deg >= 0.0;
+        if !in_range {
+            return bad(format!("augment is out of range: {a:?}"));
+        }
+        if self.limits.max_keypoints == 0 && self.limits.max_lines == 0 {
+            return bad("limits leave nothing to train on".into());
+        }
+        if self.query_max_keypoints == 0 {
+            return bad("query_max_keypoints must be at least 1".into());
+        }
+        Ok(())
+    }
+
+    /// The learning rate of iteration `i` (0-based): the iterations are cut into
+    /// `lr_halvings + 1` equal parts, part k running at `learning_rate / 2^k`.
+    pub fn learning_rate_at(&self, i: u64) -> f64 {
+        let parts = self.lr_halvings as u64 + 1;
+        let k = ((i as u128 * parts as u128) / self.iterations.max(1) as u128) as u64;
+        self.learning_rate * 0.5f64.powi(k.min(self.lr_halvings as u64) as i32)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn default_config_is_valid_and_round_trips_through_toml() {
+        let c = TrainConfig::default();
+        c.validate().unwrap();
+        let back: TrainConfig = toml::from_str(&c.to_toml()).unwrap();
+        assert_eq!(back, c);
+        // A partial file keeps the defaults for the rest.
+        let p: TrainConfig = toml::from_str("iterations = 50\n[limits]\nmax_lines = 8\n").unwrap();
+        assert_eq!(p.iterations, 50);
+        assert_eq!(p.limits.max_lines, 8);
+        assert_eq!(p.limits.max_keypoints, 1024);
+        assert!(toml::from_str::<TrainConfig>("iteration = 5").is_err());
+    }
+
+    #[test]
+    fn learning_rate_halves_k_times_evenly() {
+        let c = TrainConfig {
+            iterations: 800,
+            learning_rate: 1.0,
+            lr_halvings: 3,
+            ..Default::default()
+        };
+        assert_eq!(c.learning_rate_at(0), 1.0);
+        assert_eq!(c.learning_rate_at(199), 1.0);
+        assert_eq!(c.learning_rate_at(200), 0.5);
+        assert_eq!(c.learning_rate_at(400), 0.25);
+        assert_eq!(c.learning_rate_at(799), 0.125);
+        assert_eq!(c.learning_rate_at(10_000), 0.125);
+    }
+
+    #[test]
+    fn mismatched_front_end_is_refused() {
+        let mut c = TrainConfig::default();
+        c.front_end.samples_per_line = 8;
+        assert!(
+            c.validate()
+                .unwrap_err()
+                .to_string()
+                .contains("line_tokens")
+        );
+        let c = TrainConfig {
+            model: ModelConfig::superpoint(),
+            ..Default::default()
+        };
+        assert!(c.validate().is_err());
+    }
+}

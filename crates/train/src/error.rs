@@ -1,0 +1,42 @@
+//! Errors of the trainer, each naming the file (and where useful the frame) it is about.
+
+use std::path::PathBuf;
+use thiserror::Error;
+
+#[derive(Debug, Error)]
+pub enum TrainError {
+    #[error("invalid training configuration: {0}")]
+    Config(String),
+    #[error("reading the configuration {path}: {reason}")]
+    ConfigFile { path: PathBuf, reason: String },
+    #[error(transparent)]
+    Shard(#[from] shards::ShardError),
+    #[error("no training frames in the given shards")]
+    NoFrames,
+    #[error("frame {frame_id} ({name}): {reason}")]
+    Frame {
+        frame_id: u64,
+        name: String,
+        reason: String,
+    },
+    #[error("front-end: {0}")]
+    Features(#[from] features::FeatureError),
+    #[error("model: {0}")]
+    Model(#[from] model::ModelError),
+    #[error("checkpoint {path}: {reason}")]
+    Checkpoint { path: PathBuf, reason: String },
+    #[error("{path}: {source}")]
+    Io {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    #[error("the frame stream's background thread stopped: {0}")]
+    Stream(String),
+    #[error("image: {0}")]
+    Image(String),
+}
+
+pub(crate) fn io_err(path: impl Into<PathBuf>) -> impl FnOnce(std::io::Error) -> TrainError {
+    let path = path.into();
+    move |source| TrainError::Io { path, source }
+}

@@ -1,0 +1,231 @@
+//! Prediction with a trained network: the API the score stage calls.
+//!
+//! ```ignore
+//! let predictor = train::Predictor::load(Path::new("out/model.ckpt"))?;
+//! let p = predictor.predict(&gray_image, &camera)?;
+//! for k in &p.points { /* k.xy (COLMAP pixels), k.xyz (world), k.reliability */ }
+//! for l in &p.lines  { /* l.segment [x1 y1 x2 y2], l.start / l.end (world), l.reliability */ }
+//! ```
+//!
+//! - [`Predictor::load`] reads a checkpoint (`model.ckpt` or `checkpoint.ckpt`); the
+//!   training configuration inside it fixes the network and the front-end.
+//! - [`Predictor::predict`] runs the front-end exactly as training describes its inputs
+//!   (SIFT keypoints, top `query_max_keypoints` by response; upright fixed-scale SIFT
+//!   descriptors at them; LSD segments; descriptors at T samples along each segment) and
+//!   the network in evaluation mode (no dropout), on the CPU backend.
+//! - Outputs are in input order, world coordinates, pixels in COLMAP's convention (centre
+//!   of the top-left pixel at (0.5, 0.5)). Filter by reliability as the caller needs
+//!   (specs/pl2map.md section 6: r >= 0.5 for points, r >= 0.02 for lines).
+//! - The camera is only checked against the image size: the network needs no intrinsics.
+//!   A `Predictor` is `Send + Sync`; `predict` takes `&self`.
+
+use crate::checkpoint::CheckpointFile;
+use crate::config::TrainConfig;
+use crate::error::TrainError;
+use features::{FrontEndConfig, ImageFeatures};
+use geometry::Camera;
+use image::GrayImage;
+use model::{CpuBackend, Pl2Map};
+use std::path::Path;
+
+/// A keypoint and what the network says about it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PredictedPoint {
+    pub xy: [f64; 2],
+    pub xyz: [f64; 3],
+    pub reliability: f64,
+}
+
+/// A segment and its predicted 3D endpoints (`start` belongs to (x1, y1)).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PredictedLine {
+    pub segment: [f64; 4],
+    pub start: [f64; 3],
+    pub end: [f64; 3],
+    pub reliability: f64,
+}
+
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ImagePrediction {
+    pub points: Vec<PredictedPoint>,
+    pub lines: Vec<PredictedLine>,
+}
+
+pub struct Predictor {
+    network: Pl2Map<CpuBackend>,
+    config: TrainConfig,
+    front_end: FrontEndConfig,
+    /// Added to every predicted coordinate (the training's `scene_centre`).
+    centre: [f64; 3],
+}
+
+impl Predictor {
+    pub fn load(checkpoint: &Path) -> Result<Self, TrainError> {
+        let ck = CheckpointFile::read(checkpoint)?;
+        let network = ck.model::<CpuBackend>(&Default::default())?;
+        let mut p = Self::from_parts(network, ck.header.config);
+        p.centre = ck.header.scene_centre;
+        Ok(p)
+    }
+
+    /// A predictor over an in-memory network and its training configuration (network
+    /// coordinates = world coordinates).
+    pub fn from_parts(network: Pl2Map<CpuBackend>, config: TrainConfig) -> Self {
+        let mut front_end = config.front_end.clone();
+        front_end.sift.max_keypoints = config.query_max_keypoints;
+        Predictor {
+            network,
+            config,
+            front_end,
+            centre: [0.0; 3],
+        }
+    }
+
+    /// Origin of the network's coordinates in the world (from the checkpoint).
+    pub fn scene_centre(&self) -> [f64; 3] {
+        self.centre
+    }
+
+    pub fn config(&self) -> &TrainConfig {
+        &self.config
+    }
+
+    /// The front-end of the query path (training's, with the query's top-K).
+    pub fn front_end(&self) -> &FrontEndConfig {
+        &self.front_end
+    }
+
+    /// Detects, describes and predicts one grey image.
+    pub fn predict(
+        &self,
+        image: &GrayImage,
+        camera: &Camera,
+    ) -> Result<ImagePrediction, TrainError> {
+        if (image.width() as u64, image.height() as u64) != (camera.width, camera.height) {
+            return Err(TrainError::Image(format!(
+                "image is {}x{} but the camera says {}x{}",
+                image.width(),
+                image.height(),
+                camera.width,
+                camera.height
+            )));
+        }
+        let f = features::extract(image, &self.front_end)?;
+        self.predict_features(&f)
+    }
+
+    /// The network on front-end output computed elsewhere (same configuration).
+    pub fn predict_features(&self, f: &ImageFeatures) -> Result<ImagePrediction, TrainError> {
+        let out = self.network.predict(&f.descriptors, &f.line_descriptors)?;
+        let c = self.centre;
+        let d3 = |v: [f32; 3]| [v[0] as f64 + c[0], v[1] as f64 + c[1], v[2] as f64 + c[2]];
+        Ok(ImagePrediction {
+            points: f
+                .keypoints
+                .iter()
+                .zip(&out.points)
+                .map(|(xy, p)| PredictedPoint {
+                    xy: *xy,
+                    xyz: d3(p.xyz),
+                    reliability: p.reliability as f64,
+                })
+                .collect(),
+            lines: f
+                .segments
+                .iter()
+                .zip(&out.lines)
+                .map(|(s, l)| PredictedLine {
+                    segment: *s,
+                    start: d3(l.start),
+                    end: d3(l.end),
+                    reliability: l.reliability as f64,
+                })
+                .collect(),
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sample::{Limits, decode_gray, prepare};
+    use crate::seeds::{self, Purpose};
+    use crate::testutil::{camera, frame};
+    use model::LayerKind;
+
+    fn config() -> TrainConfig {
+        let mut c = TrainConfig::default();
+        c.model.line_tokens = 4;
+        c.front_end.samples_per_line = 4;
+        c.model.ffn_dim = 32;
+        c.model.layers = vec![LayerKind::SelfAttention];
+        c.model.head_hidden = vec![16];
+        c.query_max_keypoints = 50;
+        c
+    }
+
+    /// Training describes given positions the way the predictor describes detections:
+    /// at the same positions both give the same network outputs.
+    #[test]
+    fn prediction_agrees_with_the_training_inputs() {
+        let cfg = config();
+        let net = cfg
+            .model
+            .init::<CpuBackend>(4, &Default::default())
+            .unwrap();
+        let p = Predictor::from_parts(net.clone(), cfg.clone());
+        let f = frame(9, 30, 4, 0.0);
+        let gray = decode_gray(&f).unwrap();
+        let pred = p.predict(&gray, &camera()).unwrap();
+        assert!(!pred.points.is_empty() && pred.points.len() <= 50);
+        for k in &pred.points {
+            assert!(k.reliability > 0.0 && k.reliability <= 1.0);
+            assert!(k.xyz.iter().all(|v| v.is_finite()));
+        }
+        // The same keypoints and segments as labels of a frame, through the training path.
+        let mut g = f.clone();
+        g.keypoints = pred.points.iter().map(|k| k.xy).collect();
+        let n = g.keypoints.len();
+        g.point3d_ids = vec![-1; n];
+        g.points3d = vec![[0.0; 3]; n];
+        g.point_valid = vec![false; n];
+        g.segments = pred.lines.iter().map(|l| l.segment).collect();
+        let m = g.segments.len();
+        g.track_ids = vec![-1; m];
+        g.lines3d = vec![[0.0; 6]; m];
+        g.line_valid = vec![false; m];
+        let limits = Limits {
+            max_keypoints: 10_000,
+            max_lines: 10_000,
+        };
+        let s = prepare(
+            &g,
+            &cfg.front_end,
+            None,
+            &limits,
+            &mut seeds::rng(0, Purpose::Sample, 0),
+        )
+        .unwrap()
+        .sample;
+        let direct = net
+            .predict(&s.point_descriptors, &s.line_descriptors)
+            .unwrap();
+        for (a, b) in pred.points.iter().zip(&direct.points) {
+            for k in 0..3 {
+                assert!((a.xyz[k] - b.xyz[k] as f64).abs() < 1e-4);
+            }
+        }
+    }
+
+    #[test]
+    fn image_and_camera_must_agree() {
+        let cfg = config();
+        let net = cfg
+            .model
+            .init::<CpuBackend>(4, &Default::default())
+            .unwrap();
+        let p = Predictor::from_parts(net, cfg);
+        let e = p.predict(&GrayImage::new(10, 10), &camera()).unwrap_err();
+        assert!(e.to_string().contains("10x10"), "{e}");
+    }
+}

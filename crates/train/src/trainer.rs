@@ -1,0 +1,478 @@
+//! The training loop: stream -> sample -> Adam step, with the learning-rate schedule,
+//! checkpoints, the metrics table, a progress bar and the loss plot.
+//!
+//! Exact resume: a checkpoint holds the weights, Adam's state and the iteration count;
+//! the stream position is the iteration, and every random choice (epoch order,
+//! augmentation, subsampling, dropout) is derived from the seed and the iteration or
+//! stream position (`seeds.rs`). The CPU backend's results do not depend on the thread
+//! count (model crate tests), so a resumed run reproduces the uninterrupted one bit for
+//! bit (test `resumed_run_matches_an_uninterrupted_one`).
+//!
+//! Output folder: `config.toml` (the effective configuration), `checkpoint.ckpt` (latest
+//! checkpoint, with optimiser state), `model.ckpt` (final weights + configuration, what
+//! the predictor loads), `metrics.csv`, `losses.png`.
+
+use crate::checkpoint::{
+    CHECKPOINT_FILE, CheckpointFile, CheckpointHeader, MODEL_FILE, save, write_atomic,
+};
+use crate::config::TrainConfig;
+use crate::error::{TrainError, io_err};
+use crate::metrics::{MetricsRow, MetricsWriter};
+use crate::plot::{PLOT_FILE, plot_metrics};
+use crate::sample::{Prepared, label_centre, prepare, recentre};
+use crate::seeds::{self, Purpose};
+use crate::stream::{FrameStream, StreamConfig};
+use indicatif::{ProgressBar, ProgressStyle};
+use model::burn::tensor::backend::AutodiffBackend;
+use model::{LossValues, Pl2MapBackend, StepOptions, TrainState};
+use std::io::IsTerminal;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+pub const CONFIG_FILE: &str = "config.toml";
+
+/// How to run (what is not part of the configuration).
+#[derive(Clone, Debug, Default)]
+pub struct RunOptions {
+    pub out_dir: PathBuf,
+    /// Continue from `out_dir/checkpoint.ckpt` with its configuration.
+    pub resume: bool,
+    /// Start from the weights of this checkpoint (same network configuration); the
+    /// optimiser starts fresh.
+    pub init: Option<PathBuf>,
+    /// Replaces the configuration's iteration count (also when resuming; the learning
+    /// rate schedule follows the new count).
+    pub iterations: Option<u64>,
+    /// Show a progress bar (only drawn on a terminal).
+    pub progress: bool,
+    /// Stop after this many iterations in total as a killed run would (no final
+    /// checkpoint, model or plot): for tests of `resume`.
+    pub stop_after: Option<u64>,
+}
+
+/// Loss terms averaged over the last iterations of the run.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct MeanLosses {
+    pub iterations: usize,
+    pub total: f64,
+    pub map_points: f64,
+    pub map_lines: f64,
+    pub reliability: f64,
+    pub reprojection: f64,
+}
+
+#[derive(Clone, Debug)]
+pub struct TrainSummary {
+    pub config: TrainConfig,
+    pub resumed_from: Option<u64>,
+    pub iterations_done: u64,
+    pub finished: bool,
+    pub frames_per_epoch: usize,
+    pub seconds: f64,
+    /// Steps that changed nothing (a frame with no point and no line left).
+    pub skipped_steps: u64,
+    pub last: MeanLosses,
+    pub checkpoint: PathBuf,
+    pub model: Option<PathBuf>,
+    pub metrics: PathBuf,
+    pub plot: Option<PathBuf>,
+}
+
+/// Trains on the CPU backend.
+pub fn train(
+    config: TrainConfig,
+    shards: &[PathBuf],
+    options: &RunOptions,
+) -> Result<TrainSummary, TrainError> {
+    train_on::<model::CpuAutodiffBackend>(config, shards, options, &Default::default())
+}
+
+fn mean_losses(window: &[LossValues]) -> MeanLosses {
+    if window.is_empty() {
+        return MeanLosses::default();
+    }
+    let n = window.len().max(1) as f64;
+    let avg = |f: &dyn Fn(&LossValues) -> f64| window.iter().map(f).sum::<f64>() / n;
+    MeanLosses {
+        iterations: window.len(),
+        total: avg(&|l| l.total),
+        map_points: avg(&|l| l.map_points),
+        map_lines: avg(&|l| l.map_lines),
+        reliability: avg(&|l| l.reliability_points + l.reliability_lines),
+        reprojection: avg(&|l| l.reprojection_points + l.reprojection_lines),
+    }
+}
+
+fn progress_bar(total: u64, start: u64, show: bool) -> ProgressBar {
+    if !show || !std::io::stderr().is_terminal() {
+        return ProgressBar::hidden();
+    }
+    let bar = ProgressBar::new(total);
+    let style = ProgressStyle::with_template(
+        "{elapsed_precise} [{bar:30}] {pos}/{len} ({per_sec}, ETA {eta_precise}) {msg}",
+    )
+    .unwrap_or_else(|_| ProgressStyle::default_bar())
+    .progress_chars("=> ");
+    bar.set_style(style);
+    bar.set_position(start);
+    bar
+}
+
+/// Trains on any autodiff backend (see [`train`]).
+pub fn train_on<B: AutodiffBackend + Pl2MapBackend>(
+    config: TrainConfig,
+    shards: &[PathBuf],
+    options: &RunOptions,
+    device: &B::Device,
+) -> Result<TrainSummary, TrainError> {
+    let out = &options.out_dir;
+    std::fs::create_dir_all(out).map_err(io_err(out))?;
+    let ckpt_path = out.join(CHECKPOINT_FILE);
+
+    // The run's configuration, network and optimiser.
+    let (config, state, start, centre) = if options.resume {
+        let ck = CheckpointFile::read(&ckpt_path)?;
+        let centre = ck.header.scene_centre;
+        let mut cfg = ck.header.config.clone();
+        if let Some(n) = options.iterations {
+            cfg.iterations = n;
+        }
+        let model = ck.model::<B>(device)?;
+        let optimizer = ck
+            .optimizer::<B>(device)?
+            .ok_or_else(|| TrainError::Checkpoint {
+                path: ckpt_path.clone(),
+                reason: "holds no optimiser state: cannot resume from it".into(),
+            })?;
+        let state = TrainState::from_parts(model, optimizer, cfg.loss.clone())?;
+        (cfg, state, ck.header.iteration, centre)
+    } else {
+        if ckpt_path.exists() {
+            return Err(TrainError::Config(format!(
+                "{} already exists: pass --resume to continue that run, or use another folder",
+                ckpt_path.display()
+            )));
+        }
+        let mut cfg = config;
+        if let Some(n) = options.iterations {
+            cfg.iterations = n;
+        }
+        cfg.validate()?;
+        let (state, centre) = match &options.init {
+            Some(path) => {
+                let ck = CheckpointFile::read(path)?;
+                if ck.header.config.model != cfg.model {
+                    return Err(TrainError::Checkpoint {
+                        path: path.clone(),
+                        reason: format!(
+                            "its network ({:?}) is not the configured one ({:?})",
+                            ck.header.config.model, cfg.model
+                        ),
+                    });
+                }
+                // The warm-started network predicts in its own coordinates.
+                (
+                    TrainState::new(ck.model::<B>(device)?, cfg.loss.clone())?,
+                    ck.header.scene_centre,
+                )
+            }
+            None => (
+                TrainState::init(&cfg.model, cfg.loss.clone(), cfg.seed, device)?,
+                label_centre(shards)?,
+            ),
+        };
+        (cfg, state, 0, centre)
+    };
+    config.validate()?;
+    write_atomic(&out.join(CONFIG_FILE), config.to_toml().as_bytes())?;
+    let mut state = state;
+
+    let stream_cfg = StreamConfig {
+        shuffle_buffer: config.shuffle_buffer,
+        prefetch: config.prefetch,
+        seed: config.seed,
+    };
+    let (fe, aug, limits, seed) = (
+        config.front_end.clone(),
+        config.augment.clone(),
+        config.limits.clone(),
+        config.seed,
+    );
+    let mut stream = FrameStream::start(shards, stream_cfg, start, move |at, frame| {
+        let mut rng = seeds::rng(seed, Purpose::Sample, at.position);
+        let mut p = prepare(&frame, &fe, Some(&aug), &limits, &mut rng)?;
+        recentre(&mut p.sample, &centre);
+        Ok(p)
+    })?;
+    let frames_per_epoch = stream.frames_per_epoch();
+
+    let mut metrics = MetricsWriter::open(out, start)?;
+    let bar = progress_bar(config.iterations, start, options.progress);
+    let t0 = Instant::now();
+    let mut recent: Vec<LossValues> = Vec::new();
+    let mut skipped = 0u64;
+    let mut done = start;
+    let header = |iteration: u64, config: &TrainConfig| CheckpointHeader {
+        tool_version: env!("CARGO_PKG_VERSION").to_string(),
+        config: config.clone(),
+        iteration,
+        has_optimizer: true,
+        scene_centre: centre,
+        weights_hash: String::new(),
+        optimizer_hash: String::new(),
+    };
+    let mut killed = false;
+    for i in start..config.iterations {
+        if options.stop_after.is_some_and(|s| i >= s) {
+            killed = true;
+            break;
+        }
+        let t = Instant::now();
+        let (
+            _,
+            Prepared {
+                frame_id, sample, ..
+            },
+        ) = stream.next_item()?;
+        let data_seconds = t.elapsed().as_secs_f64();
+        let lr = config.learning_rate_at(i);
+        let step = StepOptions {
+            progress: i as f64 / config.iterations as f64,
+            learning_rate: lr,
+            dropout_seed: seeds::derive(config.seed, Purpose::Dropout, i),
+        };
+        let report = state.step(&sample, &step)?;
+        if !report.updated {
+            skipped += 1;
+        }
+        done = i + 1;
+        let row = MetricsRow {
+            iteration: done,
+            frame_id,
+            losses: report.losses,
+            lr,
+            keypoints: sample.keypoints.len(),
+            labelled_points: sample.point_valid.iter().filter(|v| **v).count(),
+            lines: sample.segments.len(),
+            labelled_lines: sample.line_valid.iter().filter(|v| **v).count(),
+            seconds: t.elapsed().as_secs_f64(),
+            data_seconds,
+        };
+        metrics.append(&row)?;
+        if recent.len() == 100 {
+            recent.remove(0);
+        }
+        recent.push(report.losses);
+        bar.set_position(done);
+        if done % 10 == 0 || done == config.iterations {
+            let m = mean_losses(&recent);
+            bar.set_message(format!(
+                "loss {:.3} (map {:.3}+{:.3}, rel {:.3}, reproj {:.3}) lr {lr:.2e}",
+                m.total, m.map_points, m.map_lines, m.reliability, m.reprojection
+            ));
+        }
+        if done % config.checkpoint_every == 0 || done == config.iterations {
+            save(
+                &ckpt_path,
+                &header(done, &config),
+                state.model(),
+                Some(&state.optimizer),
+            )?;
+            tracing::debug!("checkpoint at iteration {done}");
+        }
+    }
+    bar.finish_and_clear();
+    drop(stream);
+
+    let finished = !killed && done >= config.iterations;
+    let (model_path, plot_path) = if finished {
+        if start == done {
+            // Nothing left to train: the checkpoint already holds the final state.
+            tracing::info!("{} already at iteration {done}", ckpt_path.display());
+        }
+        let model_path = out.join(MODEL_FILE);
+        save::<B>(&model_path, &header(done, &config), state.model(), None)?;
+        let plot_path = out.join(PLOT_FILE);
+        plot_metrics(metrics.path(), &plot_path)?;
+        (Some(model_path), Some(plot_path))
+    } else {
+        (None, None)
+    };
+    Ok(TrainSummary {
+        config,
+        resumed_from: options.resume.then_some(start),
+        iterations_done: done,
+        finished,
+        frames_per_epoch,
+        seconds: t0.elapsed().as_secs_f64(),
+        skipped_steps: skipped,
+        last: mean_losses(&recent),
+        checkpoint: ckpt_path,
+        model: model_path,
+        metrics: metrics.path().to_path_buf(),
+        plot: plot_path,
+    })
+}
+
+/// The parameters of a checkpoint's network as f32 bytes (see
+/// [`crate::checkpoint::parameter_bytes`]), for comparisons.
+pub fn model_parameter_bytes(path: &Path) -> Result<Vec<u8>, TrainError> {
+    let net = CheckpointFile::read(path)?.model::<model::CpuBackend>(&Default::default())?;
+    Ok(crate::checkpoint::parameter_bytes(&net))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::augment::AugmentConfig;
+    use crate::sample::Limits;
+    use crate::testutil::write_synthetic_shards;
+    use model::LayerKind;
+
+    fn tiny_config() -> TrainConfig {
+        let mut c = TrainConfig::default();
+        c.model.line_tokens = 4;
+        c.front_end.samples_per_line = 4;
+        c.model.ffn_dim = 32;
+        c.model.layers = vec![LayerKind::SelfAttention, LayerKind::Cross];
+        c.model.head_hidden = vec![32];
+        c.iterations = 9;
+        c.checkpoint_every = 3;
+        c.learning_rate = 1e-3;
+        c.lr_halvings = 2;
+        c.seed = 21;
+        c.shuffle_buffer = 3;
+        c.prefetch = 2;
+        c.limits = Limits {
+            max_keypoints: 24,
+            max_lines: 4,
+        };
+        c.augment = AugmentConfig {
+            probability: 0.5,
+            ..Default::default()
+        };
+        c
+    }
+
+    fn opts(out: &Path) -> RunOptions {
+        RunOptions {
+            out_dir: out.to_path_buf(),
+            ..Default::default()
+        }
+    }
+
+    /// A run stopped after 5 iterations (last checkpoint at 3) and resumed ends with
+    /// byte-identical weights to an uninterrupted run, and its metrics table lists every
+    /// iteration once with the same losses.
+    #[test]
+    fn resumed_run_matches_an_uninterrupted_one() {
+        let dir = tempfile::tempdir().unwrap();
+        let shards = write_synthetic_shards(&dir.path().join("."), 2, 4, 0.0);
+        let cfg = tiny_config();
+
+        let a = dir.path().join("a");
+        let full = train(cfg.clone(), &shards, &opts(&a)).unwrap();
+        assert!(full.finished);
+        assert_eq!(full.iterations_done, 9);
+        assert_eq!(full.frames_per_epoch, 8);
+
+        let b = dir.path().join("b");
+        let stopped = train(
+            cfg.clone(),
+            &shards,
+            &RunOptions {
+                stop_after: Some(5),
+                ..opts(&b)
+            },
+        )
+        .unwrap();
+        assert!(!stopped.finished);
+        assert!(!b.join(MODEL_FILE).exists());
+        assert_eq!(
+            CheckpointFile::read(&b.join(CHECKPOINT_FILE))
+                .unwrap()
+                .header
+                .iteration,
+            3
+        );
+        // Without --resume the folder is refused.
+        assert!(train(cfg.clone(), &shards, &opts(&b)).is_err());
+        let resumed = train(
+            TrainConfig::default(), // ignored: the checkpoint's configuration is used
+            &shards,
+            &RunOptions {
+                resume: true,
+                ..opts(&b)
+            },
+        )
+        .unwrap();
+        assert_eq!(resumed.resumed_from, Some(3));
+        assert!(resumed.finished);
+        let wa = model_parameter_bytes(&a.join(MODEL_FILE)).unwrap();
+        assert_eq!(wa, model_parameter_bytes(&b.join(MODEL_FILE)).unwrap());
+        // Training changed the weights (the comparison is not vacuous).
+        let init = cfg
+            .model
+            .init::<model::CpuBackend>(cfg.seed, &Default::default())
+            .unwrap();
+        assert_ne!(wa, crate::checkpoint::parameter_bytes(&init));
+        let strip_seconds = |p: &Path| -> Vec<String> {
+            std::fs::read_to_string(p)
+                .unwrap()
+                .lines()
+                .map(|l| l.rsplitn(3, ',').nth(2).unwrap().to_string())
+                .collect()
+        };
+        let rows = strip_seconds(&a.join("metrics.csv"));
+        assert_eq!(rows.len(), 10);
+        assert_eq!(rows, strip_seconds(&b.join("metrics.csv")));
+        assert!(a.join(PLOT_FILE).is_file());
+
+        // A warm start from the finished model: same weights at iteration 0, fresh Adam.
+        let c = dir.path().join("c");
+        let warm = train(
+            cfg.clone(),
+            &shards,
+            &RunOptions {
+                init: Some(a.join(MODEL_FILE)),
+                iterations: Some(2),
+                ..opts(&c)
+            },
+        )
+        .unwrap();
+        assert_eq!(warm.iterations_done, 2);
+        let mut other = cfg.clone();
+        other.model.head_hidden = vec![16];
+        let e = train(
+            other,
+            &shards,
+            &RunOptions {
+                init: Some(a.join(MODEL_FILE)),
+                ..opts(&dir.path().join("d"))
+            },
+        )
+        .unwrap_err();
+        assert!(e.to_string().contains("network"), "{e}");
+    }
+
+    #[test]
+    fn training_lowers_the_map_loss() {
+        let dir = tempfile::tempdir().unwrap();
+        let shards = write_synthetic_shards(dir.path(), 1, 2, 0.0);
+        let mut cfg = tiny_config();
+        cfg.iterations = 200;
+        cfg.checkpoint_every = 1000;
+        cfg.augment.probability = 0.0;
+        cfg.model.dropout = 0.0;
+        cfg.learning_rate = 3e-3;
+        cfg.lr_halvings = 1;
+        let out = dir.path().join("o");
+        let s = train(cfg, &shards, &opts(&out)).unwrap();
+        let cols = crate::metrics::read_columns(&s.metrics, &["map_points", "lr"]).unwrap();
+        let first: f64 = cols[0][..5].iter().sum::<f64>() / 5.0;
+        let last: f64 = cols[0][190..].iter().sum::<f64>() / 10.0;
+        assert!(last < 0.7 * first, "{first} -> {last}");
+        assert_eq!(cols[1][0], 3e-3);
+        assert_eq!(cols[1][199], 1.5e-3);
+    }
+}
