@@ -1,0 +1,44 @@
+//! The score stage (specs/pl2map.md section 6): localise each frame of a shard folder
+//! from 2D-3D correspondences, with points only and with points + lines, and measure
+//! the poses against the ground truth.
+//!
+//! - [`Localiser`]: where correspondences come from. [`OracleLocaliser`] takes them
+//!   from the shard labels (training frames: test shards carry no labels); the network
+//!   adapter ([`network`], feature `network`, on by default) runs a trained checkpoint
+//!   through `train::Predictor`.
+//! - [`evaluate`]: per frame, keep predictions with reliability >= 0.5 (points) /
+//!   0.02 (lines), then `pose::estimate_pose` (12 px / 10 px, seeded per frame) for both
+//!   variants, and the errors of `geometry::metrics`.
+//! - [`run()`]: the stage. Outputs in the output folder, each written atomically:
+//!   `per_frame.parquet` ([`table`]), `results_points.txt` and
+//!   `results_points_lines.txt` ([`hloc`] format), `summary.md` and `summary.json`
+//!   ([`summary`]), `cdf.png` ([`plot`]). For the same shards, localiser and seed every
+//!   file is the same bytes except the `time_*` columns of the table.
+//!
+//! A crate of its own rather than part of `pose`: scoring reads shards and writes
+//! parquet (polars) and runs the network (burn), while `pose` stays a small solver
+//! library with no such dependencies, usable on correspondences from anywhere.
+
+mod error;
+pub mod evaluate;
+mod font;
+pub mod hloc;
+mod localiser;
+#[cfg(feature = "network")]
+pub mod network;
+pub mod oracle;
+pub mod plot;
+pub mod run;
+pub mod summary;
+pub mod table;
+
+pub use error::ScoreError;
+pub use evaluate::{FrameResult, ScoreConfig, Variant, VariantResult};
+pub use localiser::{
+    Correspondences, LineCorrespondence, Localiser, PointCorrespondence, TestFrame, Timing,
+};
+#[cfg(feature = "network")]
+pub use network::NetworkLocaliser;
+pub use oracle::OracleLocaliser;
+pub use run::{ScoreOutput, run};
+pub use summary::Summary;

@@ -1,0 +1,111 @@
+//! Where the 2D-3D correspondences of a frame come from: the network
+//! ([`crate::network`], when built) or the shard labels ([`crate::oracle`]).
+
+use crate::error::ScoreError;
+use geometry::{Camera, Pose};
+use shards::{FrameRecord, Split};
+
+/// One frame to localise, as read from a shard: image file bytes, camera, ground-truth
+/// pose and (training shards only) its labels. A localiser may use anything but the
+/// pose; the oracle uses the labels, which were made with that pose.
+#[derive(Clone, Debug)]
+pub struct TestFrame {
+    pub record: FrameRecord,
+}
+
+impl TestFrame {
+    pub fn frame_id(&self) -> u64 {
+        self.record.frame_id
+    }
+
+    /// Dataset-relative image name (the hloc result files' key).
+    pub fn name(&self) -> &str {
+        &self.record.name
+    }
+
+    pub fn camera(&self) -> &Camera {
+        &self.record.camera
+    }
+
+    /// World-to-camera ground truth the errors are measured against.
+    pub fn gt_pose(&self) -> &Pose {
+        &self.record.pose
+    }
+
+    pub fn split(&self) -> Split {
+        self.record.split
+    }
+
+    /// Decodes the image file (PNG or JPEG, as stored) to 8-bit grey.
+    pub fn gray_image(&self) -> Result<image::GrayImage, ScoreError> {
+        let format = match self.record.image_format {
+            shards::ImageFormat::Png => image::ImageFormat::Png,
+            shards::ImageFormat::Jpeg => image::ImageFormat::Jpeg,
+        };
+        image::load_from_memory_with_format(&self.record.image_bytes, format)
+            .map(|img| img.to_luma8())
+            .map_err(|e| ScoreError::Frame {
+                frame_id: self.frame_id(),
+                name: self.name().to_string(),
+                reason: format!("cannot decode the image: {e}"),
+            })
+    }
+}
+
+/// A keypoint (COLMAP pixels) with its predicted 3D world point.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PointCorrespondence {
+    pub pixel: [f64; 2],
+    pub world: [f64; 3],
+    /// Predicted reliability in [0, 1]; predictions under the threshold are dropped.
+    pub reliability: f64,
+}
+
+/// A detected segment `x1 y1 x2 y2` (COLMAP pixels) with predicted 3D endpoints
+/// `X1 Y1 Z1 X2 Y2 Z2` on the same world line.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LineCorrespondence {
+    pub segment: [f64; 4],
+    pub world: [f64; 6],
+    pub reliability: f64,
+}
+
+/// Time one step of a localiser took on a frame.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Timing {
+    /// Short snake_case name (`detect`, `network`, ...): a column `time_<step>_ms` of
+    /// the per-frame table.
+    pub step: String,
+    pub ms: f64,
+}
+
+/// Everything a localiser proposes for one frame, before any filtering.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Correspondences {
+    pub points: Vec<PointCorrespondence>,
+    pub lines: Vec<LineCorrespondence>,
+    pub timings: Vec<Timing>,
+}
+
+/// A source of 2D-3D correspondences.
+pub trait Localiser {
+    /// One line for the summary: what the correspondences come from.
+    fn describe(&self) -> String;
+
+    /// The split whose shards are scored. Test frames by default; the oracle needs
+    /// labels, which only training shards carry.
+    fn split(&self) -> Split {
+        Split::Test
+    }
+
+    /// Correspondences of one frame. An error stops the run: it means the localiser
+    /// cannot work (unreadable image, broken model), not that the frame is hard.
+    fn correspond(&mut self, frame: &TestFrame) -> Result<Correspondences, ScoreError>;
+}
+
+pub(crate) fn split_name(s: Split) -> &'static str {
+    match s {
+        Split::Train => "train",
+        Split::Test => "test",
+    }
+}

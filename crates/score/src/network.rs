@@ -1,0 +1,219 @@
+//! The network localiser: a trained checkpoint through `train::Predictor` (the
+//! front-end and the PL2Map network on the CPU backend). Behind the `network` feature (on by default)
+//! so the rest of the crate builds without burn.
+
+use crate::error::ScoreError;
+use crate::localiser::{
+    Correspondences, LineCorrespondence, Localiser, PointCorrespondence, TestFrame, Timing,
+};
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+use train::Predictor;
+
+/// Correspondences predicted by a trained network for each test frame.
+pub struct NetworkLocaliser {
+    predictor: Predictor,
+    checkpoint: PathBuf,
+}
+
+impl NetworkLocaliser {
+    /// Loads a checkpoint (`model.ckpt` or `checkpoint.ckpt` of `pl2map train`).
+    pub fn load(checkpoint: &Path) -> Result<Self, ScoreError> {
+        let predictor = Predictor::load(checkpoint).map_err(|e| ScoreError::Network {
+            checkpoint: checkpoint.to_path_buf(),
+            reason: e.to_string(),
+        })?;
+        Ok(NetworkLocaliser {
+            predictor,
+            checkpoint: checkpoint.to_path_buf(),
+        })
+    }
+
+    /// A localiser over a predictor built elsewhere (`name` stands for the checkpoint in
+    /// the summary).
+    pub fn from_predictor(predictor: Predictor, name: impl Into<PathBuf>) -> Self {
+        NetworkLocaliser {
+            predictor,
+            checkpoint: name.into(),
+        }
+    }
+
+    fn frame_err(frame: &TestFrame, reason: String) -> ScoreError {
+        ScoreError::Frame {
+            frame_id: frame.frame_id(),
+            name: frame.name().to_string(),
+            reason,
+        }
+    }
+}
+
+fn ms_since(t: Instant) -> f64 {
+    t.elapsed().as_secs_f64() * 1e3
+}
+
+impl Localiser for NetworkLocaliser {
+    fn describe(&self) -> String {
+        format!("network: checkpoint {}", self.checkpoint.display())
+    }
+
+    fn correspond(&mut self, frame: &TestFrame) -> Result<Correspondences, ScoreError> {
+        let t = Instant::now();
+        let gray = frame.gray_image()?;
+        let decode_ms = ms_since(t);
+        let cam = frame.camera();
+        if (u64::from(gray.width()), u64::from(gray.height())) != (cam.width, cam.height) {
+            return Err(Self::frame_err(
+                frame,
+                format!(
+                    "image is {}x{} but the camera says {}x{}",
+                    gray.width(),
+                    gray.height(),
+                    cam.width,
+                    cam.height
+                ),
+            ));
+        }
+        // Front-end and network timed apart: `Predictor::predict` is exactly these two.
+        let t = Instant::now();
+        let features = features::extract(&gray, self.predictor.front_end())
+            .map_err(|e| Self::frame_err(frame, format!("front-end: {e}")))?;
+        let front_end_ms = ms_since(t);
+        let t = Instant::now();
+        let pred = self
+            .predictor
+            .predict_features(&features)
+            .map_err(|e| Self::frame_err(frame, format!("network: {e}")))?;
+        let network_ms = ms_since(t);
+        let timing = |step: &str, ms| Timing {
+            step: step.into(),
+            ms,
+        };
+        Ok(Correspondences {
+            points: pred
+                .points
+                .iter()
+                .map(|p| PointCorrespondence {
+                    pixel: p.xy,
+                    world: p.xyz,
+                    reliability: p.reliability,
+                })
+                .collect(),
+            lines: pred
+                .lines
+                .iter()
+                .map(|l| LineCorrespondence {
+                    segment: l.segment,
+                    world: [
+                        l.start[0], l.start[1], l.start[2], l.end[0], l.end[1], l.end[2],
+                    ],
+                    reliability: l.reliability,
+                })
+                .collect(),
+            timings: vec![
+                timing("decode", decode_ms),
+                timing("front_end", front_end_ms),
+                timing("network", network_ms),
+            ],
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use geometry::{Camera, CameraModel, Pose};
+    use model::{CpuBackend, LayerKind};
+    use shards::{FrameRecord, ImageFormat, LabelSource, Split};
+
+    /// A textured 160x120 PNG: bright squares and bars on a gradient, so SIFT and LSD
+    /// find something.
+    fn frame(w: u32, h: u32, cam_w: u64) -> TestFrame {
+        let img = image::GrayImage::from_fn(w, h, |x, y| {
+            let square = (x / 20 + y / 20) % 2 == 0 && (x % 20) > 4 && (y % 20) > 4;
+            let bar = (40..44).contains(&x) || (70..73).contains(&y);
+            image::Luma([if square || bar {
+                230
+            } else {
+                (x + y) as u8 / 4
+            }])
+        });
+        let mut png = std::io::Cursor::new(Vec::new());
+        img.write_to(&mut png, image::ImageFormat::Png).unwrap();
+        TestFrame {
+            record: FrameRecord {
+                frame_id: 1,
+                name: "q.png".into(),
+                split: Split::Test,
+                camera: Camera::new(
+                    CameraModel::Pinhole,
+                    cam_w,
+                    u64::from(h),
+                    vec![100.0, 100.0, 80.0, 60.0],
+                )
+                .unwrap(),
+                pose: Pose::identity(),
+                image_bytes: png.into_inner(),
+                image_format: ImageFormat::Png,
+                keypoints: vec![],
+                point3d_ids: vec![],
+                points3d: vec![],
+                point_valid: vec![],
+                segments: vec![],
+                track_ids: vec![],
+                lines3d: vec![],
+                line_valid: vec![],
+                label_source: LabelSource::SyntheticExact,
+                endpoints_aligned: true,
+            },
+        }
+    }
+
+    fn localiser() -> NetworkLocaliser {
+        let mut c = train::TrainConfig::default();
+        c.model.line_tokens = 4;
+        c.front_end.samples_per_line = 4;
+        c.model.ffn_dim = 32;
+        c.model.layers = vec![LayerKind::SelfAttention];
+        c.model.head_hidden = vec![16];
+        c.query_max_keypoints = 50;
+        let net = c.model.init::<CpuBackend>(4, &Default::default()).unwrap();
+        NetworkLocaliser::from_predictor(Predictor::from_parts(net, c), "tiny")
+    }
+
+    #[test]
+    fn predictions_become_correspondences_in_order() {
+        let mut loc = localiser();
+        let f = frame(160, 120, 160);
+        let c = loc.correspond(&f).unwrap();
+        let expected = loc
+            .predictor
+            .predict(&f.gray_image().unwrap(), f.camera())
+            .unwrap();
+        assert_eq!(c.points.len(), expected.points.len());
+        assert_eq!(c.lines.len(), expected.lines.len());
+        assert!(!c.points.is_empty(), "the test image should have keypoints");
+        for (a, b) in c.points.iter().zip(&expected.points) {
+            assert_eq!(a.pixel, b.xy);
+            assert_eq!(a.world, b.xyz);
+            assert_eq!(a.reliability, b.reliability);
+        }
+        for (a, b) in c.lines.iter().zip(&expected.lines) {
+            assert_eq!(a.segment, b.segment);
+            assert_eq!(a.world[..3], b.start);
+            assert_eq!(a.world[3..], b.end);
+        }
+        let steps: Vec<_> = c.timings.iter().map(|t| t.step.as_str()).collect();
+        assert_eq!(steps, vec!["decode", "front_end", "network"]);
+        assert!(loc.describe().contains("tiny"));
+        assert_eq!(loc.split(), Split::Test);
+    }
+
+    #[test]
+    fn camera_size_must_match_the_image() {
+        let e = localiser()
+            .correspond(&frame(160, 120, 320))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("160x120") && e.contains("320x120"), "{e}");
+    }
+}
