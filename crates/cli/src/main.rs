@@ -37,6 +37,16 @@ enum Command {
     Refine(commands::refine::Args),
     /// Stage 4: write label shards (MCAP) and their manifest.
     Shard(commands::shard::Args),
+    /// Stage 5: train the PL2Map network on the training shards.
+    Train(commands::train::Args),
+    /// Stage 6: localise the frames of a shard folder (network or oracle) and score the poses.
+    Score(commands::score::Args),
+    /// Run a pipeline file (pipeline/*.toml): every stage in order, skipping up-to-date ones.
+    Run(commands::run::Args),
+    /// Write the lock file (manifests/*.toml) of a pipeline's training set.
+    Lock(commands::verify::LockArgs),
+    /// Rebuild a lock file's training set and compare every hash.
+    Verify(commands::verify::VerifyArgs),
     /// Absolute pose from 2D-3D point (and line) correspondences.
     Pose(commands::pose::Args),
     /// Benchmarks that print a table (never run as tests).
@@ -55,6 +65,11 @@ fn main() -> std::process::ExitCode {
         Command::Import(a) => commands::import::run(a),
         Command::Refine(a) => commands::refine::run(a),
         Command::Shard(a) => commands::shard::run(a),
+        Command::Train(a) => commands::train::run(a, cli.quiet),
+        Command::Score(a) => commands::score::run(a),
+        Command::Run(a) => commands::run::run(a, cli.quiet),
+        Command::Lock(a) => commands::verify::lock(a, cli.quiet),
+        Command::Verify(a) => commands::verify::verify(a, cli.quiet),
         Command::Pose(a) => commands::pose::run(a),
         Command::Bench(c) => commands::bench::run(c),
     };

@@ -116,7 +116,10 @@ fn segments_stay_inside_the_image() {
             }
         }
     }
-    assert!(near_border > 0, "no segment reached the border: the test tests nothing");
+    assert!(
+        near_border > 0,
+        "no segment reached the border: the test tests nothing"
+    );
 }
 
 #[test]

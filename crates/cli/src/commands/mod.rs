@@ -9,11 +9,17 @@ pub mod ingest;
 pub mod limap;
 pub mod pose;
 pub mod refine;
+pub mod run;
+pub mod score;
 pub mod shard;
 pub mod synth;
+pub mod train;
+pub mod verify;
 
 /// Logs go to stderr through `tracing`; `RUST_LOG` overrides the level.
 pub fn init_logging(quiet: bool) {
+    // Progress bars of every stage (stage::progress_bar) follow --quiet too.
+    stage::set_quiet(quiet);
     let default = if quiet { "warn" } else { "info" };
     let filter = tracing_subscriber::EnvFilter::try_from_default_env()
         .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(default));
