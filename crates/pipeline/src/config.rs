@@ -13,7 +13,7 @@ use crate::expand::{expand, line_column};
 use crate::train_stage::ScoreSection;
 use datasets::ingest::{DatasetKind, DepthOption, IngestConfig, PoseOption};
 use labels::import::ImportConfig;
-use labels::refine::{PointSampling, RefineConfig};
+use labels::refine::RefineConfig;
 use labels::shard::ShardStageConfig;
 use labels::{NameMapping, PoseSource};
 use serde::{Deserialize, Serialize};
@@ -167,59 +167,9 @@ impl ImportSection {
     }
 }
 
-/// `labels::refine::RefineConfig`, field for field (metres), with its defaults.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct RefineSection {
-    pub point_sampling: PointSampling,
-    pub point_inlier_threshold_m: f64,
-    pub max_depth_m: f64,
-    pub line_inlier_threshold_m: f64,
-    pub line_min_inlier_ratio: f64,
-    pub line_sample_spacing_px: f64,
-    pub line_min_samples: usize,
-    pub line_max_samples: usize,
-    pub line_min_valid_samples: usize,
-    pub ransac_iterations: usize,
-    pub seed: u64,
-}
-
-impl Default for RefineSection {
-    fn default() -> Self {
-        let c = RefineConfig::default();
-        RefineSection {
-            point_sampling: c.point_sampling,
-            point_inlier_threshold_m: c.point_inlier_threshold_m,
-            max_depth_m: c.max_depth_m,
-            line_inlier_threshold_m: c.line_inlier_threshold_m,
-            line_min_inlier_ratio: c.line_min_inlier_ratio,
-            line_sample_spacing_px: c.line_sample_spacing_px,
-            line_min_samples: c.line_min_samples,
-            line_max_samples: c.line_max_samples,
-            line_min_valid_samples: c.line_min_valid_samples,
-            ransac_iterations: c.ransac_iterations,
-            seed: c.seed,
-        }
-    }
-}
-
-impl RefineSection {
-    pub fn config(&self) -> RefineConfig {
-        RefineConfig {
-            point_sampling: self.point_sampling,
-            point_inlier_threshold_m: self.point_inlier_threshold_m,
-            max_depth_m: self.max_depth_m,
-            line_inlier_threshold_m: self.line_inlier_threshold_m,
-            line_min_inlier_ratio: self.line_min_inlier_ratio,
-            line_sample_spacing_px: self.line_sample_spacing_px,
-            line_min_samples: self.line_min_samples,
-            line_max_samples: self.line_max_samples,
-            line_min_valid_samples: self.line_min_valid_samples,
-            ransac_iterations: self.ransac_iterations,
-            seed: self.seed,
-        }
-    }
-}
+/// The `[refine]` section is `labels::refine::RefineConfig` itself (metres), with its
+/// defaults for missing keys.
+pub use labels::refine::RefineConfig as RefineSection;
 
 /// `labels::shard::ShardStageConfig`, flattened.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -387,7 +337,7 @@ impl Pipeline {
             model,
             limap,
             import: imp.config(),
-            refine: file.refine.as_ref().map(RefineSection::config),
+            refine: file.refine.clone(),
             shard: file.shard.config(),
             file,
         })

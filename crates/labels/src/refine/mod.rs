@@ -83,6 +83,8 @@ impl std::str::FromStr for PointSampling {
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+// Missing keys take the defaults; unknown keys are refused (pipeline files are typed).
+#[serde(default, deny_unknown_fields)]
 pub struct RefineConfig {
     pub point_sampling: PointSampling,
     /// Observations of a point farther than this (metres) from the median are rejected.
