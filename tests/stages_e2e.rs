@@ -268,3 +268,55 @@ fn refinement_removes_label_noise_on_the_tiny_scene() {
         );
     }
 }
+
+/// The score command end to end on the tiny scene: the oracle (labels of the training
+/// shards) localises every frame, the iteration cap is passed through, and a cap of 0
+/// is refused with a message rather than a panic.
+#[test]
+fn score_oracle_through_the_command() {
+    let p = prepare();
+    let shards = p.root.join("shards");
+    let mut c = pl2map();
+    c.arg("shard")
+        .arg("--frames")
+        .arg(&p.frames)
+        .arg("--labels")
+        .arg(&p.labels)
+        .arg("--out")
+        .arg(&shards);
+    ok(c.output().unwrap(), "shard");
+    let out = p.root.join("score");
+    let printed = ok(
+        pl2map()
+            .arg("score")
+            .arg("--shards")
+            .arg(&shards)
+            .arg("--out")
+            .arg(&out)
+            .args(["--oracle", "--max-iterations", "2000"])
+            .output()
+            .unwrap(),
+        "score --oracle",
+    );
+    assert!(printed.contains("points + lines"), "{printed}");
+    for f in ["summary.md", "summary.json", "per_frame.parquet", "cdf.png"] {
+        assert!(out.join(f).is_file(), "{f} missing");
+    }
+    let results = std::fs::read_to_string(out.join("results_points.txt")).unwrap();
+    assert_eq!(results.lines().count(), 24, "one pose per training frame");
+    let bad = pl2map()
+        .arg("score")
+        .arg("--shards")
+        .arg(&shards)
+        .arg("--out")
+        .arg(p.root.join("score0"))
+        .args(["--oracle", "--max-iterations", "0"])
+        .output()
+        .unwrap();
+    assert!(!bad.status.success());
+    let err = String::from_utf8_lossy(&bad.stderr);
+    assert!(
+        err.contains("max_iterations") && !err.contains("panicked"),
+        "{err}"
+    );
+}

@@ -82,6 +82,11 @@ impl ScoreConfig {
                 )));
             }
         }
+        // The rest of the RANSAC options (iterations, probability...): refused here,
+        // before any frame, rather than as a failure of every frame.
+        self.ransac
+            .validate()
+            .map_err(|e| ScoreError::Config(format!("RANSAC options: {e}")))?;
         Ok(())
     }
 }

@@ -41,6 +41,10 @@ pub struct Args {
     /// RANSAC seed (mixed with each frame id; same inputs and seed, same poses).
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
+    /// RANSAC iterations at most (PoseLib's default). A weak model leaves few inliers
+    /// and RANSAC runs to this cap (seconds per frame): lower it for quick looks.
+    #[arg(long, default_value_t = 100_000)]
+    pub max_iterations: usize,
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
@@ -55,6 +59,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             // (6 px for the default 12 px).
             point_loss_scale_px: 0.5 * args.point_threshold,
             line_loss_scale_px: 0.5 * args.point_threshold,
+            max_iterations: args.max_iterations,
+            min_iterations: RansacOptions::default()
+                .min_iterations
+                .min(args.max_iterations),
             ..RansacOptions::default()
         },
     };

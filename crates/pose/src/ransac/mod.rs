@@ -100,7 +100,8 @@ impl Default for RansacOptions {
 }
 
 impl RansacOptions {
-    fn validate(&self) -> Result<(), PoseError> {
+    /// Refuses options RANSAC cannot run with (thresholds, probability, iterations).
+    pub fn validate(&self) -> Result<(), PoseError> {
         let positive = [
             ("point_threshold_px", self.point_threshold_px),
             ("line_threshold_px", self.line_threshold_px),
