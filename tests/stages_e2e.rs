@@ -86,29 +86,28 @@ fn prepare_with_noise(noise_cm: f64) -> Prepared {
     }
 }
 
-fn shard_cmd(p: &Prepared, out: &Path) -> Command {
+/// `pl2map STAGE --frames FRAMES --labels LABELS --out OUT` (refine and shard).
+fn labels_stage(stage: &str, p: &Prepared, labels: &Path, out: &Path) -> Command {
     let mut c = pl2map();
-    c.arg("shard")
+    c.arg(stage)
         .arg("--frames")
         .arg(&p.frames)
         .arg("--labels")
-        .arg(&p.labels)
+        .arg(labels)
         .arg("--out")
-        .arg(out)
-        .args(["--frames-per-shard", "1"]);
+        .arg(out);
+    c
+}
+
+/// One frame per shard: many shards, so that a kill lands mid-run.
+fn shard_cmd(p: &Prepared, out: &Path) -> Command {
+    let mut c = labels_stage("shard", p, &p.labels, out);
+    c.args(["--frames-per-shard", "1"]);
     c
 }
 
 fn refine_cmd(p: &Prepared, out: &Path) -> Command {
-    let mut c = pl2map();
-    c.arg("refine")
-        .arg("--frames")
-        .arg(&p.frames)
-        .arg("--labels")
-        .arg(&p.labels)
-        .arg("--out")
-        .arg(out);
-    c
+    labels_stage("refine", p, &p.labels, out)
 }
 
 fn mcap_files(dir: &Path) -> Vec<PathBuf> {
@@ -204,15 +203,12 @@ fn refine_then_shard_on_the_synthetic_scene() {
     let out = ok(refine_cmd(&p, &refined).output().unwrap(), "refine");
     assert!(out.contains("points") && out.contains("lines"), "{out}");
     let shards = p.root.join("shards");
-    let mut c = pl2map();
-    c.arg("shard")
-        .arg("--frames")
-        .arg(&p.frames)
-        .arg("--labels")
-        .arg(&refined)
-        .arg("--out")
-        .arg(&shards);
-    ok(c.output().unwrap(), "shard");
+    ok(
+        labels_stage("shard", &p, &refined, &shards)
+            .output()
+            .unwrap(),
+        "shard",
+    );
     assert!(shards.join("manifest.json").is_file());
     assert!(!mcap_files(&shards).is_empty());
 }
@@ -276,15 +272,12 @@ fn refinement_removes_label_noise_on_the_tiny_scene() {
 fn score_oracle_through_the_command() {
     let p = prepare();
     let shards = p.root.join("shards");
-    let mut c = pl2map();
-    c.arg("shard")
-        .arg("--frames")
-        .arg(&p.frames)
-        .arg("--labels")
-        .arg(&p.labels)
-        .arg("--out")
-        .arg(&shards);
-    ok(c.output().unwrap(), "shard");
+    ok(
+        labels_stage("shard", &p, &p.labels, &shards)
+            .output()
+            .unwrap(),
+        "shard",
+    );
     let out = p.root.join("score");
     let printed = ok(
         pl2map()

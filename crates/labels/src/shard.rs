@@ -260,27 +260,21 @@ impl Source<'_> {
         let image_format = ImageFormat::sniff(&bytes).ok_or_else(|| SourceError::Format {
             path: f.path.clone(),
         })?;
+        let split = match f.split {
+            Split::Train => shards::Split::Train,
+            Split::Test => shards::Split::Test,
+        };
         let mut rec = FrameRecord {
-            frame_id,
-            name: f.name.clone(),
-            split: match f.split {
-                Split::Train => shards::Split::Train,
-                Split::Test => shards::Split::Test,
-            },
-            camera: f.camera.clone(),
-            pose: f.pose,
-            image_bytes: bytes,
-            image_format,
-            keypoints: Vec::new(),
-            point3d_ids: Vec::new(),
-            points3d: Vec::new(),
-            point_valid: Vec::new(),
-            segments: Vec::new(),
-            track_ids: Vec::new(),
-            lines3d: Vec::new(),
-            line_valid: Vec::new(),
             label_source: self.labels.source.to_shards(),
-            endpoints_aligned: true,
+            ..FrameRecord::unlabelled(
+                frame_id,
+                f.name.clone(),
+                split,
+                f.camera.clone(),
+                f.pose,
+                bytes,
+                image_format,
+            )
         };
         if let Some((pose_row, prange, lrange)) = self.train.get(&frame_id) {
             let view = &self.labels.poses[*pose_row];

@@ -314,23 +314,16 @@ mod tests {
         };
         let pr = generate_seeded(&cfg, seed);
         let record = shards::FrameRecord {
-            frame_id: seed,
-            name: format!("f{seed}.png"),
-            split: shards::Split::Test,
-            camera: pr.camera.clone(),
-            pose: pr.gt,
-            image_bytes: vec![0x89, b'P', b'N', b'G', 0x0D, 0x0A, 0x1A, 0x0A],
-            image_format: shards::ImageFormat::Png,
-            keypoints: vec![],
-            point3d_ids: vec![],
-            points3d: vec![],
-            point_valid: vec![],
-            segments: vec![],
-            track_ids: vec![],
-            lines3d: vec![],
-            line_valid: vec![],
             label_source: shards::LabelSource::SyntheticExact,
-            endpoints_aligned: true,
+            ..shards::FrameRecord::unlabelled(
+                seed,
+                format!("f{seed}.png"),
+                shards::Split::Test,
+                pr.camera.clone(),
+                pr.gt,
+                vec![0x89, b'P', b'N', b'G', 0x0D, 0x0A, 0x1A, 0x0A],
+                shards::ImageFormat::Png,
+            )
         };
         let points = pr
             .points

@@ -141,29 +141,22 @@ mod tests {
         img.write_to(&mut png, image::ImageFormat::Png).unwrap();
         TestFrame {
             record: FrameRecord {
-                frame_id: 1,
-                name: "q.png".into(),
-                split: Split::Test,
-                camera: Camera::new(
-                    CameraModel::Pinhole,
-                    cam_w,
-                    u64::from(h),
-                    vec![100.0, 100.0, 80.0, 60.0],
-                )
-                .unwrap(),
-                pose: Pose::identity(),
-                image_bytes: png.into_inner(),
-                image_format: ImageFormat::Png,
-                keypoints: vec![],
-                point3d_ids: vec![],
-                points3d: vec![],
-                point_valid: vec![],
-                segments: vec![],
-                track_ids: vec![],
-                lines3d: vec![],
-                line_valid: vec![],
                 label_source: LabelSource::SyntheticExact,
-                endpoints_aligned: true,
+                ..FrameRecord::unlabelled(
+                    1,
+                    "q.png".into(),
+                    Split::Test,
+                    Camera::new(
+                        CameraModel::Pinhole,
+                        cam_w,
+                        u64::from(h),
+                        vec![100.0, 100.0, 80.0, 60.0],
+                    )
+                    .unwrap(),
+                    Pose::identity(),
+                    png.into_inner(),
+                    ImageFormat::Png,
+                )
             },
         }
     }

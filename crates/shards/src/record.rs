@@ -97,6 +97,38 @@ pub struct FrameRecord {
 }
 
 impl FrameRecord {
+    /// A frame without labels (a test frame, or one to be filled in): no keypoints, no
+    /// segments, label source `sfm`, endpoints aligned.
+    pub fn unlabelled(
+        frame_id: u64,
+        name: String,
+        split: Split,
+        camera: Camera,
+        pose: Pose,
+        image_bytes: Vec<u8>,
+        image_format: ImageFormat,
+    ) -> Self {
+        FrameRecord {
+            frame_id,
+            name,
+            split,
+            camera,
+            pose,
+            image_bytes,
+            image_format,
+            keypoints: Vec::new(),
+            point3d_ids: Vec::new(),
+            points3d: Vec::new(),
+            point_valid: Vec::new(),
+            segments: Vec::new(),
+            track_ids: Vec::new(),
+            lines3d: Vec::new(),
+            line_valid: Vec::new(),
+            label_source: LabelSource::Sfm,
+            endpoints_aligned: true,
+        }
+    }
+
     /// Checks that the per-keypoint and per-segment arrays have equal lengths, that
     /// every coordinate that is used is finite, that ids are >= -1, and that the image
     /// bytes start with the signature of `image_format`.
