@@ -36,6 +36,23 @@ pub struct ModelConfig {
     pub dropout: f64,
     /// Reliability r = 1 / (1 + |beta u|).
     pub reliability_beta: f64,
+    /// Multiplies the point descriptors before the graph network (1 = the reference).
+    /// L2-normalised descriptors have per-dimension scale 1/sqrt(D), while the line
+    /// stream leaves the line encoder LayerNorm-ed (scale 1): sqrt(D) puts both streams
+    /// on the same scale, and the heads learn much faster (see the README's training
+    /// notes). Lines are not scaled: it would sharpen the line encoder's softmax.
+    #[serde(default = "unit_scale", skip_serializing_if = "is_unit_scale")]
+    pub point_input_scale: f64,
+}
+
+fn unit_scale() -> f64 {
+    1.0
+}
+
+// serde's skip_serializing_if hands a reference.
+#[allow(clippy::trivially_copy_pass_by_ref)]
+fn is_unit_scale(v: &f64) -> bool {
+    *v == 1.0
 }
 
 impl ModelConfig {
@@ -51,6 +68,7 @@ impl ModelConfig {
             head_hidden: vec![512, 1024, 512],
             dropout: 0.1,
             reliability_beta: 100.0,
+            point_input_scale: 1.0,
         }
     }
 
@@ -98,6 +116,12 @@ impl ModelConfig {
             return bad(format!(
                 "reliability_beta must be positive and finite, got {}",
                 self.reliability_beta
+            ));
+        }
+        if !(self.point_input_scale.is_finite() && self.point_input_scale > 0.0) {
+            return bad(format!(
+                "point_input_scale must be positive and finite, got {}",
+                self.point_input_scale
             ));
         }
         Ok(())

@@ -172,6 +172,35 @@ pub struct LossValues {
 }
 
 impl LossValues {
+    /// Means of the loss terms over several images; counts are summed, the
+    /// reprojection term is active when it was for any image, tau is the first's.
+    pub fn mean(all: &[LossValues]) -> LossValues {
+        let Some(first) = all.first() else {
+            return LossValues::default();
+        };
+        if all.len() == 1 {
+            return *first;
+        }
+        let n = all.len() as f64;
+        let avg = |f: fn(&LossValues) -> f64| all.iter().map(f).sum::<f64>() / n;
+        let sum = |f: fn(&LossValues) -> usize| all.iter().map(f).sum::<usize>();
+        LossValues {
+            total: avg(|l| l.total),
+            map_points: avg(|l| l.map_points),
+            map_lines: avg(|l| l.map_lines),
+            reliability_points: avg(|l| l.reliability_points),
+            reliability_lines: avg(|l| l.reliability_lines),
+            reprojection_points: avg(|l| l.reprojection_points),
+            reprojection_lines: avg(|l| l.reprojection_lines),
+            reprojection_valid_points: sum(|l| l.reprojection_valid_points),
+            reprojection_valid_lines: sum(|l| l.reprojection_valid_lines),
+            reprojection_candidates_points: sum(|l| l.reprojection_candidates_points),
+            reprojection_candidates_lines: sum(|l| l.reprojection_candidates_lines),
+            reprojection_active: all.iter().any(|l| l.reprojection_active),
+            tau: first.tau,
+        }
+    }
+
     /// Fraction of the point reprojection target set that passed the validity rules
     /// (None when the set is empty or L_pi is off).
     pub fn valid_fraction_points(&self) -> Option<f64> {

@@ -107,8 +107,14 @@ impl<B: Backend> NetworkInput<B> {
         }
         let n = points.len() / d;
         let m = lines.len() / (t * d);
+        let scale = config.point_input_scale as f32;
+        let points: Vec<f32> = if scale == 1.0 {
+            points.to_vec()
+        } else {
+            points.iter().map(|v| v * scale).collect()
+        };
         Ok(NetworkInput {
-            points: (n > 0).then(|| tensor_from(points.to_vec(), [n, d], device)),
+            points: (n > 0).then(|| tensor_from(points, [n, d], device)),
             lines: (m > 0).then(|| tensor_from(lines.to_vec(), [m, t, d], device)),
         })
     }

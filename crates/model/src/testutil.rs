@@ -17,6 +17,7 @@ pub fn tiny_config() -> ModelConfig {
         head_hidden: vec![16],
         dropout: 0.1,
         reliability_beta: 100.0,
+        point_input_scale: 1.0,
     }
 }
 

@@ -39,6 +39,7 @@ pub const COLUMNS: &[&str] = &[
 pub struct MetricsRow {
     /// 1-based: the row of iteration i is written after i steps.
     pub iteration: u64,
+    /// The first image of the step.
     pub frame_id: u64,
     pub losses: LossValues,
     pub lr: f64,

@@ -114,6 +114,32 @@ impl Predictor {
         self.predict_features(&f)
     }
 
+    /// Describes and predicts given positions (e.g. a labelled frame's keypoints and
+    /// segments) instead of detecting them: for measuring a model on its labels.
+    pub fn predict_at(
+        &self,
+        image: &GrayImage,
+        keypoints: &[[f64; 2]],
+        segments: &[[f64; 4]],
+    ) -> Result<ImagePrediction, TrainError> {
+        let fe = &self.front_end;
+        let f = ImageFeatures {
+            keypoints: keypoints.to_vec(),
+            descriptors: features::describe_points(image, keypoints, &fe.sift, &fe.descriptor)?,
+            segments: segments.to_vec(),
+            line_descriptors: features::describe_lines(
+                image,
+                segments,
+                fe.samples_per_line,
+                &fe.sift,
+                &fe.descriptor,
+            )?,
+            samples_per_line: fe.samples_per_line,
+            dim: features::SIFT_DIM,
+        };
+        self.predict_features(&f)
+    }
+
     /// The network on front-end output computed elsewhere (same configuration).
     pub fn predict_features(&self, f: &ImageFeatures) -> Result<ImagePrediction, TrainError> {
         let out = self.network.predict(&f.descriptors, &f.line_descriptors)?;
@@ -215,6 +241,9 @@ mod tests {
                 assert!((a.xyz[k] - b.xyz[k] as f64).abs() < 1e-4);
             }
         }
+        // Describing the given positions is the detection path without the detection.
+        let at = p.predict_at(&gray, &g.keypoints, &g.segments).unwrap();
+        assert_eq!(at, pred);
     }
 
     #[test]

@@ -19,7 +19,7 @@ use crate::config::TrainConfig;
 use crate::error::{TrainError, io_err};
 use crate::metrics::{MetricsRow, MetricsWriter};
 use crate::plot::{PLOT_FILE, plot_metrics};
-use crate::sample::{Prepared, label_centre, prepare, recentre};
+use crate::sample::{label_centre, prepare, recentre};
 use crate::seeds::{self, Purpose};
 use crate::stream::{FrameStream, StreamConfig};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -198,7 +198,8 @@ pub fn train_on<B: AutodiffBackend + Pl2MapBackend>(
         config.limits.clone(),
         config.seed,
     );
-    let mut stream = FrameStream::start(shards, stream_cfg, start, move |at, frame| {
+    let batch = config.batch_frames as u64;
+    let mut stream = FrameStream::start(shards, stream_cfg, start * batch, move |at, frame| {
         let mut rng = seeds::rng(seed, Purpose::Sample, at.position);
         let mut p = prepare(&frame, &fe, Some(&aug), &limits, &mut rng)?;
         recentre(&mut p.sample, &centre);
@@ -228,12 +229,15 @@ pub fn train_on<B: AutodiffBackend + Pl2MapBackend>(
             break;
         }
         let t = Instant::now();
-        let (
-            _,
-            Prepared {
-                frame_id, sample, ..
-            },
-        ) = stream.next_item()?;
+        let mut samples = Vec::with_capacity(config.batch_frames);
+        let mut frame_id = 0;
+        for k in 0..config.batch_frames {
+            let (_, p) = stream.next_item()?;
+            if k == 0 {
+                frame_id = p.frame_id;
+            }
+            samples.push(p.sample);
+        }
         let data_seconds = t.elapsed().as_secs_f64();
         let lr = config.learning_rate_at(i);
         let step = StepOptions {
@@ -241,7 +245,7 @@ pub fn train_on<B: AutodiffBackend + Pl2MapBackend>(
             learning_rate: lr,
             dropout_seed: seeds::derive(config.seed, Purpose::Dropout, i),
         };
-        let report = state.step(&sample, &step)?;
+        let report = state.step_batch(&samples, &step)?;
         if !report.updated {
             skipped += 1;
         }
@@ -251,10 +255,16 @@ pub fn train_on<B: AutodiffBackend + Pl2MapBackend>(
             frame_id,
             losses: report.losses,
             lr,
-            keypoints: sample.keypoints.len(),
-            labelled_points: sample.point_valid.iter().filter(|v| **v).count(),
-            lines: sample.segments.len(),
-            labelled_lines: sample.line_valid.iter().filter(|v| **v).count(),
+            keypoints: samples.iter().map(|s| s.keypoints.len()).sum(),
+            labelled_points: samples
+                .iter()
+                .map(|s| s.point_valid.iter().filter(|v| **v).count())
+                .sum(),
+            lines: samples.iter().map(|s| s.segments.len()).sum(),
+            labelled_lines: samples
+                .iter()
+                .map(|s| s.line_valid.iter().filter(|v| **v).count())
+                .sum(),
             seconds: t.elapsed().as_secs_f64(),
             data_seconds,
         };
@@ -366,9 +376,20 @@ mod tests {
     /// iteration once with the same losses.
     #[test]
     fn resumed_run_matches_an_uninterrupted_one() {
+        resume_matches(1);
+    }
+
+    /// The same with 3 images per step: the stream resumes at 3 x the iteration.
+    #[test]
+    fn resumed_batched_run_matches_an_uninterrupted_one() {
+        resume_matches(3);
+    }
+
+    fn resume_matches(batch_frames: usize) {
         let dir = tempfile::tempdir().unwrap();
         let shards = write_synthetic_shards(&dir.path().join("."), 2, 4, 0.0);
-        let cfg = tiny_config();
+        let mut cfg = tiny_config();
+        cfg.batch_frames = batch_frames;
 
         let a = dir.path().join("a");
         let full = train(cfg.clone(), &shards, &opts(&a)).unwrap();
