@@ -52,6 +52,8 @@ pub enum ScoreError {
         #[source]
         source: std::io::Error,
     },
+    #[error("{}: not a score summary: {reason}", path.display())]
+    Summary { path: PathBuf, reason: String },
     #[error("{}: parquet: {source}", path.display())]
     Parquet {
         path: PathBuf,

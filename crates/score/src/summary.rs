@@ -5,18 +5,19 @@
 
 use crate::evaluate::{FrameResult, Variant};
 use geometry::metrics::{ACCURACY_THRESHOLDS, ErrorSummary, median, summarize};
-use serde::Serialize;
+use serde::{Deserialize, Deserializer, Serialize};
 
 /// The fraction of frames strictly under both thresholds.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Accuracy {
     pub cm: f64,
     pub deg: f64,
+    #[serde(deserialize_with = "null_as_nan")]
     pub fraction: f64,
 }
 
 /// The summary of one variant.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct VariantSummary {
     pub variant: Variant,
     pub frames: usize,
@@ -24,16 +25,26 @@ pub struct VariantSummary {
     pub localised: usize,
     /// Median over all frames; infinite when more than half failed, NaN for no frames
     /// (JSON: null).
+    #[serde(deserialize_with = "null_as_nan")]
     pub median_cm: f64,
+    #[serde(deserialize_with = "null_as_nan")]
     pub median_deg: f64,
     /// One per `ACCURACY_THRESHOLDS` entry.
     pub accuracy: Vec<Accuracy>,
+    #[serde(deserialize_with = "null_as_nan")]
     pub median_point_inliers: f64,
+    #[serde(deserialize_with = "null_as_nan")]
     pub median_line_inliers: f64,
 }
 
+/// JSON has no NaN or infinity: `to_json` writes them as null, read back as NaN
+/// ([`Summary::read_json`] restores the infinite medians).
+fn null_as_nan<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+    Ok(Option::<f64>::deserialize(d)?.unwrap_or(f64::NAN))
+}
+
 /// What the run scored and how.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Summary {
     /// The localiser's own description.
     pub source: String,
@@ -166,6 +177,29 @@ impl Summary {
         v.push(b'\n');
         v
     }
+
+    /// Reads what [`Summary::to_json`] wrote. A null median is infinite when the middle
+    /// frame(s) failed (`localised <= frames / 2`: failures sort last), else NaN.
+    pub fn read_json(path: &std::path::Path) -> Result<Summary, crate::ScoreError> {
+        let bytes = std::fs::read(path).map_err(|source| crate::ScoreError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        let mut s: Summary =
+            serde_json::from_slice(&bytes).map_err(|e| crate::ScoreError::Summary {
+                path: path.to_path_buf(),
+                reason: e.to_string(),
+            })?;
+        for v in &mut s.variants {
+            let failed_median = v.frames > 0 && v.localised <= v.frames / 2;
+            for m in [&mut v.median_cm, &mut v.median_deg] {
+                if m.is_nan() && failed_median {
+                    *m = f64::INFINITY;
+                }
+            }
+        }
+        Ok(s)
+    }
 }
 
 /// Median milliseconds of each step over the frames, in the order steps first appear.
@@ -290,6 +324,14 @@ mod tests {
         // Infinite medians are written as null (JSON has no infinity).
         assert!(json["variants"][1]["median_cm"].is_null());
         assert!(timing_table(&results).contains("| read | 0.00 |"));
+        // Read back: the null median of the failed variant is infinite again.
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("summary.json");
+        std::fs::write(&path, s.to_json()).unwrap();
+        assert_eq!(Summary::read_json(&path).unwrap(), s);
+        std::fs::write(&path, b"{\"source\": 3}").unwrap();
+        let err = Summary::read_json(&path).unwrap_err().to_string();
+        assert!(err.contains("summary.json: not a score summary"), "{err}");
     }
 
     #[test]
