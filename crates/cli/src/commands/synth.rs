@@ -41,6 +41,10 @@ pub struct Args {
     /// LSD segments drawn.
     #[arg(long)]
     pub preview: bool,
+    /// Only the first N training sequences (the dataset as recorded so far); the frames
+    /// are those of the full scene, so a later run with more adds frames only.
+    #[arg(long)]
+    pub train_sequences: Option<usize>,
 }
 
 /// Frames shown on the contact sheet.
@@ -68,6 +72,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         progress: true,
         ground_truth: !args.no_gt,
         label_noise_cm: args.label_noise_cm,
+        train_sequences: args.train_sequences,
     };
     if !(args.label_noise_cm >= 0.0 && args.label_noise_cm.is_finite()) {
         anyhow::bail!("--label-noise-cm must be a finite number >= 0");

@@ -45,6 +45,10 @@ pub struct SynthConfig {
     /// RMS 3D error (cm) added to the written labels; the exact ones go to
     /// `sfm_gt/exact.json` (see [`super::gt::noise`]).
     pub label_noise_cm: f64,
+    /// Only the first N training sequences (None: all): the dataset as recorded so far.
+    /// The frames kept are the same as in the full scene, so a later run with more
+    /// sequences adds frames without changing the others (nightly-retraining tests).
+    pub train_sequences: Option<usize>,
 }
 
 impl Default for SynthConfig {
@@ -60,6 +64,7 @@ impl Default for SynthConfig {
             progress: true,
             ground_truth: false,
             label_noise_cm: 0.0,
+            train_sequences: None,
         }
     }
 }
@@ -86,6 +91,20 @@ impl SynthDataset {
             frames,
             seed,
         })
+    }
+
+    /// Drops the training sequences after the first `n` (test frames stay).
+    pub fn keep_train_sequences(&mut self, n: usize) -> Result<()> {
+        let train = self.sequences(Split::Train);
+        if n == 0 || n > train.len() {
+            return Err(SynthError::InvalidConfig(format!(
+                "train_sequences {n}: the scene has {} training sequences (1..={0})",
+                train.len()
+            )));
+        }
+        let dropped: BTreeSet<u32> = train[n..].iter().copied().collect();
+        self.frames.retain(|f| !dropped.contains(&f.sequence));
+        Ok(())
     }
 
     pub fn len(&self) -> usize {
@@ -171,7 +190,10 @@ pub fn generate(cfg: &SynthConfig) -> Result<SynthOutput> {
     if cfg.ground_truth {
         gt_cfg.validate().map_err(gt_err)?;
     }
-    let dataset = SynthDataset::new(cfg.frames, cfg.seed, cfg.tiny)?;
+    let mut dataset = SynthDataset::new(cfg.frames, cfg.seed, cfg.tiny)?;
+    if let Some(n) = cfg.train_sequences {
+        dataset.keep_train_sequences(n)?;
+    }
     let staging = Staging::new(&cfg.out, &cfg.scene_name, cfg.overwrite)?;
     let root = staging.dest().to_path_buf();
 
@@ -317,4 +339,27 @@ pub fn generate(cfg: &SynthConfig) -> Result<SynthOutput> {
         frames,
         ground_truth,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Fewer training sequences: a subset of the full scene's frames, same poses, same
+    /// test frames.
+    #[test]
+    fn keeping_train_sequences_only_drops_frames() {
+        let full = SynthDataset::new(0, 0, true).unwrap();
+        let mut part = full.clone();
+        part.keep_train_sequences(3).unwrap();
+        assert_eq!(part.sequences(Split::Train), vec![1, 2, 4]);
+        assert_eq!(part.sequences(Split::Test), full.sequences(Split::Test));
+        let kept: Vec<&FrameSpec> = full.frames.iter().filter(|f| f.sequence != 5).collect();
+        assert_eq!(part.frames.iter().collect::<Vec<_>>(), kept);
+        assert_eq!(part.len(), full.len() - 6);
+        for bad in [0, 5] {
+            let err = full.clone().keep_train_sequences(bad).unwrap_err();
+            assert!(err.to_string().contains("4 training sequences"), "{err}");
+        }
+    }
 }
