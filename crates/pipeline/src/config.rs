@@ -45,6 +45,35 @@ pub struct PipelineFile {
     /// Scores the trained model on the test shards; needs `[train]`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub score: Option<ScoreSection>,
+    /// How `pl2map run --warm-start CKPT` continues training (defaults without it).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub warm_start: Option<WarmStartSection>,
+}
+
+/// Nightly retraining: with `--warm-start CKPT` the train stage starts from that model's
+/// weights (fresh optimiser, the model's coordinate centre) and trains this many
+/// iterations on the current shards, with its own learning-rate schedule.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct WarmStartSection {
+    /// None: a fifth of `[train] iterations` (at least 1).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub iterations: Option<u64>,
+    /// None: `[train] learning_rate`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub learning_rate: Option<f64>,
+}
+
+impl WarmStartSection {
+    /// The trainer's configuration of a warm-started run.
+    pub fn train_config(&self, train: &train::TrainConfig) -> train::TrainConfig {
+        let mut c = train.clone();
+        c.iterations = self.iterations.unwrap_or((train.iterations / 5).max(1));
+        if let Some(lr) = self.learning_rate {
+            c.learning_rate = lr;
+        }
+        c
+    }
 }
 
 /// `pl2map synth` options.
@@ -59,6 +88,10 @@ pub struct SynthSection {
     pub label_noise_cm: f64,
     pub layout: DatasetKind,
     pub name: String,
+    /// Only the first N training sequences (the dataset as recorded so far); raising it
+    /// later adds frames and leaves the others as they were.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub train_sequences: Option<usize>,
 }
 
 impl Default for SynthSection {
@@ -70,6 +103,7 @@ impl Default for SynthSection {
             label_noise_cm: 0.0,
             layout: DatasetKind::SevenScenes,
             name: datasets::synth::generate::DEFAULT_SCENE_NAME.into(),
+            train_sequences: None,
         }
     }
 }
@@ -220,7 +254,16 @@ pub struct Pipeline {
     pub import: ImportConfig,
     pub refine: Option<RefineConfig>,
     pub shard: ShardStageConfig,
+    /// A variant of the pipeline sharing the data stages (synth, ingest, import, refine):
+    /// its shard, train and score folders are under `<work>/<branch>/`.
+    pub branch: Option<String>,
 }
+
+/// The label variant [`Pipeline::without_refine`] makes.
+pub const WITHOUT_REFINE: &str = "without-refine";
+
+/// Stages a branch keeps in its own folder.
+const BRANCH_STAGES: [&str; 3] = ["shard", "train", "score"];
 
 /// Stage folder names under the work folder, in run order.
 pub const STAGES: [&str; 7] = [
@@ -235,9 +278,44 @@ impl Pipeline {
 
     /// As [`Pipeline::load`], with `work` (when given) replacing the file's work folder.
     pub fn load_with_work(path: &Path, work: Option<PathBuf>) -> Result<Pipeline> {
+        Pipeline::load_unit(path, work, None)
+    }
+
+    /// As [`Pipeline::load_with_work`] for one scene of a multi-scene dataset (a work
+    /// unit): `scene` replaces `ingest.scene` and `${SCENE}` in paths. When the file's
+    /// `work` does not use `${SCENE}` (and no `work` is given) the scene's work folder is
+    /// `<work>/<scene>`, so units of different scenes never share a folder.
+    pub fn load_unit(path: &Path, work: Option<PathBuf>, scene: Option<&str>) -> Result<Pipeline> {
         let text = std::fs::read_to_string(path).map_err(io_err(path))?;
-        let file = parse::<PipelineFile>(&text, path)?;
+        let mut file = parse::<PipelineFile>(&text, path)?;
         let base = path.parent().unwrap_or(Path::new("."));
+        let mut work = work;
+        if let Some(scene) = scene {
+            if file.synth.is_some() {
+                return Err(PipelineError::Config {
+                    path: path.to_path_buf(),
+                    message: "--scene selects a scene of a dataset; this pipeline renders \
+                              its own scene ([synth])"
+                        .into(),
+                });
+            }
+            if scene.is_empty() || scene.contains(['/', '\\']) || scene.starts_with('.') {
+                return Err(PipelineError::Config {
+                    path: path.to_path_buf(),
+                    message: format!("--scene {scene:?} must be a plain folder name"),
+                });
+            }
+            file.ingest.scene = Some(scene.to_string());
+            if work.is_none() && !file.work.get_ref().contains("${SCENE}") {
+                let r = Resolver {
+                    text: &text,
+                    origin: path,
+                    base,
+                    scene: None,
+                };
+                work = Some(r.path("work", &file.work)?.join(scene));
+            }
+        }
         Pipeline::resolve(file, &text, path, base, work)
     }
 
@@ -250,7 +328,12 @@ impl Pipeline {
         base: &Path,
         work: Option<PathBuf>,
     ) -> Result<Pipeline> {
-        let r = Resolver { text, origin, base };
+        let r = Resolver {
+            text,
+            origin,
+            base,
+            scene: file.ingest.scene.clone(),
+        };
         let work = match work {
             Some(w) => w,
             None => r.path("work", &file.work)?,
@@ -340,12 +423,26 @@ impl Pipeline {
             refine: file.refine.clone(),
             shard: file.shard.config(),
             file,
+            branch: None,
         })
     }
 
-    /// `<work>/<stage>`.
+    /// `<work>/<stage>`, or `<work>/<branch>/<stage>` for a branch's own stages.
     pub fn stage_dir(&self, stage: &str) -> PathBuf {
-        self.work.join(stage)
+        match &self.branch {
+            Some(b) if BRANCH_STAGES.contains(&stage) => self.work.join(b).join(stage),
+            _ => self.work.join(stage),
+        }
+    }
+
+    /// The same pipeline on the imported labels as they are: no `[refine]`, its shards,
+    /// model and score in `<work>/without-refine/` (the data stages are shared).
+    pub fn without_refine(&self) -> Pipeline {
+        let mut p = self.clone();
+        p.refine = None;
+        p.file.refine = None;
+        p.branch = Some(WITHOUT_REFINE.to_string());
+        p
     }
 
     /// The label folder the shards are made from: refine's, or import's without it.
@@ -393,6 +490,8 @@ struct Resolver<'a> {
     text: &'a str,
     origin: &'a Path,
     base: &'a Path,
+    /// `${SCENE}`: `ingest.scene` (after `--scene`); other names come from the environment.
+    scene: Option<String>,
 }
 
 impl Resolver<'_> {
@@ -415,7 +514,11 @@ impl Resolver<'_> {
     }
 
     fn expand(&self, key: &str, v: &Spanned<String>) -> Result<String> {
-        expand(v.get_ref(), |n| std::env::var(n).ok()).map_err(|m| self.value(key, v.span(), m))
+        let lookup = |n: &str| match n {
+            "SCENE" => self.scene.clone(),
+            _ => std::env::var(n).ok(),
+        };
+        expand(v.get_ref(), lookup).map_err(|m| self.value(key, v.span(), m))
     }
 
     /// Expanded, then relative to the pipeline file's folder.

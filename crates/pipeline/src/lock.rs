@@ -307,6 +307,7 @@ pub fn verify(manifest: &Path, work: Option<&Path>, progress: bool) -> Result<Ve
         &RunOptions {
             until: Some("shard".into()),
             progress,
+            ..RunOptions::default()
         },
     )?;
     let actual = Lock::collect(&p)?;

@@ -5,7 +5,9 @@
 
 use crate::config::{Pipeline, STAGES};
 use crate::error::{PipelineError, Result, stage_err};
+use crate::train_stage::WarmStart;
 use crate::{synth_stage, train_stage};
+use std::ops::Range;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -34,6 +36,12 @@ pub struct RunOptions {
     pub until: Option<String>,
     /// Progress bars (also hidden when stderr is not a terminal).
     pub progress: bool,
+    /// Continue training from this model (`[warm_start]` says how long), when the
+    /// training shards changed since the model in `<work>/train/` was made.
+    pub warm_start: Option<PathBuf>,
+    /// A work unit: only these shards of the shard stage's plan; the stages after it
+    /// wait for the whole set (the unit that completes it writes `manifest.json`).
+    pub shards: Option<Range<usize>>,
 }
 
 #[derive(Clone, Debug)]
@@ -100,9 +108,16 @@ pub fn run(p: &Pipeline, options: &RunOptions) -> Result<RunReport> {
     for (i, &stage) in STAGES.iter().enumerate() {
         let dir = p.stage_dir(stage);
         let t = Instant::now();
+        let unit_done =
+            options.shards.is_some() && i > STAGES.iter().position(|s| *s == "shard").unwrap_or(0);
         let (status, note) = if i > last {
             (
                 Status::Off(format!("after --until {}", STAGES[last])),
+                String::new(),
+            )
+        } else if unit_done {
+            (
+                Status::Off("a --shards work unit ends with its shards".into()),
                 String::new(),
             )
         } else {
@@ -139,24 +154,53 @@ pub fn run(p: &Pipeline, options: &RunOptions) -> Result<RunReport> {
                     None => (Status::Off("no [refine]".into()), String::new()),
                 },
                 "shard" => {
-                    let out = labels::shard::run(&p.shard, &frames, &p.labels_dir(), &dir, None)
+                    let range = options.shards.clone();
+                    let out = labels::shard::run(&p.shard, &frames, &p.labels_dir(), &dir, range)
                         .map_err(|e| stage_err("shard")(&e))?;
                     let m = &out.manifest;
-                    let note = format!(
+                    let mut note = format!(
                         "{} shards, {} frames",
                         m.shards.len(),
                         m.shards.iter().map(|s| s.frame_count).sum::<u64>()
                     );
+                    if let Some(r) = &options.shards {
+                        let state = if out.complete {
+                            "the set is complete"
+                        } else {
+                            "other units pending"
+                        };
+                        note = format!("unit {}..{}: {note}; {state}", r.start, r.end);
+                    }
                     (status(out.skipped), note)
                 }
                 "train" => match &p.file.train {
                     Some(c) => {
-                        let (skipped, _) =
-                            train_stage::train(c, &p.stage_dir("shard"), &dir, options.progress)?;
-                        (
-                            status(skipped),
-                            format!("{} iterations, seed {}", c.iterations, c.seed),
-                        )
+                        let warm = options.warm_start.as_ref().map(|ckpt| WarmStart {
+                            checkpoint: ckpt.clone(),
+                            config: p
+                                .file
+                                .warm_start
+                                .clone()
+                                .unwrap_or_default()
+                                .train_config(c),
+                        });
+                        let (skipped, _) = train_stage::train(
+                            c,
+                            &p.stage_dir("shard"),
+                            &dir,
+                            options.progress,
+                            warm.as_ref(),
+                        )?;
+                        let note = match &warm {
+                            Some(w) => format!(
+                                "warm start from {}: {} iterations, seed {}",
+                                w.checkpoint.display(),
+                                w.config.iterations,
+                                w.config.seed
+                            ),
+                            None => format!("{} iterations, seed {}", c.iterations, c.seed),
+                        };
+                        (status(skipped), note)
                     }
                     None => (Status::Off("no [train]".into()), String::new()),
                 },

@@ -49,6 +49,7 @@ pub fn run(section: &SynthSection, dir: &Path, progress: bool) -> Result<bool> {
         progress,
         ground_truth: true,
         label_noise_cm: section.label_noise_cm,
+        train_sequences: section.train_sequences,
     };
     datasets::synth::generate(&cfg).map_err(|e| stage_err(STAGE)(&e))?;
     let mut record = StageRecord::new(STAGE, config_hash, inputs);

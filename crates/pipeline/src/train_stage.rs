@@ -25,6 +25,10 @@ pub struct ScoreSection {
     pub point_threshold_px: f64,
     pub line_threshold_px: f64,
     pub seed: u64,
+    /// RANSAC iteration cap (None: the localiser's default). A weak model makes every
+    /// frame run to it.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub max_iterations: Option<usize>,
 }
 
 impl Default for ScoreSection {
@@ -36,6 +40,7 @@ impl Default for ScoreSection {
             point_threshold_px: c.ransac.point_threshold_px,
             line_threshold_px: c.ransac.line_threshold_px,
             seed: c.ransac.seed,
+            max_iterations: None,
         }
     }
 }
@@ -44,6 +49,7 @@ impl ScoreSection {
     /// As `pl2map score`: the Cauchy scale of the final refinement is half the point
     /// threshold for both kinds.
     pub fn config(&self) -> score::ScoreConfig {
+        let defaults = pose::RansacOptions::default();
         score::ScoreConfig {
             min_point_reliability: self.min_point_reliability,
             min_line_reliability: self.min_line_reliability,
@@ -53,7 +59,11 @@ impl ScoreSection {
                 seed: self.seed,
                 point_loss_scale_px: 0.5 * self.point_threshold_px,
                 line_loss_scale_px: 0.5 * self.point_threshold_px,
-                ..pose::RansacOptions::default()
+                max_iterations: self.max_iterations.unwrap_or(defaults.max_iterations),
+                min_iterations: defaults
+                    .min_iterations
+                    .min(self.max_iterations.unwrap_or(usize::MAX)),
+                ..defaults
             },
         }
     }
@@ -125,22 +135,49 @@ fn record(
     Ok(())
 }
 
+/// A warm start: the model to continue from and the run's configuration.
+#[derive(Clone, Debug)]
+pub struct WarmStart {
+    pub checkpoint: PathBuf,
+    pub config: train::TrainConfig,
+}
+
+/// The pipeline's copy of the warm start's model, kept next to what it became (the
+/// given file may be `<work>/train/model.ckpt` itself, which the run replaces).
+pub const WARM_START_FILE: &str = "warm-start.ckpt";
+
 /// Trains on the training shards of `shard_dir` into `dir` unless the record matches.
-/// Returns (skipped, the model file).
+/// With `warm`, training starts from its model and runs its configuration, and only
+/// when the training shards differ from those the current model in `dir` was trained
+/// on (nothing new: nothing to do). Returns (skipped, the model file).
 pub fn train(
     config: &train::TrainConfig,
     shard_dir: &Path,
     dir: &Path,
     progress: bool,
+    warm: Option<&WarmStart>,
 ) -> Result<(bool, PathBuf)> {
     let model = dir.join(train::checkpoint::MODEL_FILE);
-    let (paths, inputs) = split_shards(shard_dir, Split::Train)?;
+    let (paths, mut inputs) = split_shards(shard_dir, Split::Train)?;
+    let config = warm.map_or(config, |w| &w.config);
     let config_hash = stage::hash_config(config)?;
     // A fresh run refuses a folder holding a checkpoint (it would be another run's).
     let stale = [
         train::checkpoint::CHECKPOINT_FILE,
         train::checkpoint::MODEL_FILE,
     ];
+    let mut init = None;
+    if let Some(w) = warm {
+        if trained_on_these_shards(dir, &inputs)? {
+            return Ok((true, model));
+        }
+        let bytes = std::fs::read(&w.checkpoint).map_err(io_err(&w.checkpoint))?;
+        let copy = dir.join(WARM_START_FILE);
+        std::fs::create_dir_all(dir).map_err(io_err(dir))?;
+        stage::write_atomic(&copy, &bytes)?;
+        inputs.insert("warm_start".into(), stage::sha256_bytes(&bytes));
+        init = Some(copy);
+    }
     if up_to_date("train", dir, &config_hash, &inputs, &stale)? {
         return Ok((true, model));
     }
@@ -153,6 +190,7 @@ pub fn train(
     let options = train::RunOptions {
         out_dir: dir.to_path_buf(),
         progress,
+        init: init.clone(),
         ..train::RunOptions::default()
     };
     let s = train::train(config.clone(), &paths, &options).map_err(|e| stage_err("train")(&e))?;
@@ -164,8 +202,28 @@ pub fn train(
     };
     let mut files = vec![model_path, s.checkpoint.clone(), s.metrics.clone()];
     files.extend(s.plot.clone());
+    files.extend(init);
     record("train", dir, config_hash, inputs, &files)?;
     Ok((false, model))
+}
+
+/// Whether `dir` holds an intact trained model whose record lists exactly these
+/// training shards (whatever its configuration or warm start was).
+fn trained_on_these_shards(dir: &Path, shards: &BTreeMap<String, String>) -> Result<bool> {
+    let Ok(Some(rec)) = StageRecord::load(dir) else {
+        return Ok(false);
+    };
+    let recorded: BTreeMap<String, String> = rec
+        .inputs
+        .iter()
+        .filter(|(k, _)| k.starts_with("shard/"))
+        .map(|(k, v)| (k.clone(), v.clone()))
+        .collect();
+    if &recorded != shards {
+        return Ok(false);
+    }
+    let check = StageRecord::check(dir, "train", &rec.config_hash, &rec.inputs);
+    Ok(matches!(check, Ok(RecordCheck::UpToDate)))
 }
 
 /// Scores `model` on the test shards of `shard_dir` into `dir` unless the record

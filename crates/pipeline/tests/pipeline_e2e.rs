@@ -22,6 +22,7 @@ fn quiet() -> RunOptions {
     RunOptions {
         until: Some("shard".into()),
         progress: false,
+        ..Default::default()
     }
 }
 
@@ -152,6 +153,7 @@ fn train_and_score_run_once_then_skip() {
     let all = RunOptions {
         until: None,
         progress: false,
+        ..Default::default()
     };
     let first = run(&p, &all).unwrap();
     assert!(
@@ -172,6 +174,7 @@ fn train_and_score_run_once_then_skip() {
         &RunOptions {
             until: Some("nope".into()),
             progress: false,
+            ..Default::default()
         },
     );
     assert!(
@@ -202,6 +205,30 @@ fn committed_pipeline_files_resolve() {
     assert_eq!(s.work, PathBuf::from("/w/7scenes-stairs"));
     assert_eq!(s.limap, PathBuf::from("/out/limap/stairs"));
     assert!(s.refine.is_some() && s.synth.is_none());
+    // A work unit of another scene: ${SCENE} follows --scene everywhere.
+    let chess = Pipeline::load_unit(&dir.join("7scenes.toml"), None, Some("chess")).unwrap();
+    assert_eq!(
+        chess.ingest.scene_dir(),
+        PathBuf::from("/data/7scenes/chess")
+    );
+    assert_eq!(chess.work, PathBuf::from("/w/7scenes-chess"));
+    assert_eq!(
+        chess.model,
+        PathBuf::from("/out/hloc/chess/sfm_superpoint+superglue")
+    );
+    assert_eq!(chess.limap, PathBuf::from("/out/limap/chess"));
+    assert_eq!(
+        chess.ingest.depth,
+        datasets::ingest::DepthOption::Rendered(PathBuf::from(
+            "/data/depth/7scenes_chess/train/depth"
+        ))
+    );
+    let err = Pipeline::load_unit(&tiny_pipeline(), None, Some("chess")).unwrap_err();
+    assert!(err.to_string().contains("[synth]"), "{err}");
+    let err = Pipeline::load_unit(&dir.join("7scenes.toml"), None, Some("../x")).unwrap_err();
+    assert!(err.to_string().contains("plain folder name"), "{err}");
+    let kings = Pipeline::load(&dir.join("cambridge.toml")).unwrap();
+    assert_eq!(kings.work, PathBuf::from("/w/cambridge-KingsCollege"));
     let c = Pipeline::load(&dir.join("cambridge.toml")).unwrap();
     assert_eq!(c.ingest.dataset, datasets::ingest::DatasetKind::Cambridge);
     assert_eq!(c.import.segment_scale, 1.2);
@@ -212,4 +239,90 @@ fn committed_pipeline_files_resolve() {
     assert!(d.file.train.is_some() && d.file.score.is_some());
     let t = Pipeline::load(&tiny_pipeline()).unwrap();
     assert!(t.synth.as_ref().unwrap().tiny);
+}
+
+/// `--shards` work units of the shard stage through `pl2map run`: the unit that completes
+/// the set writes the manifest a single run writes, and the stages after the shards
+/// wait for it.
+#[test]
+fn shard_work_units_through_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let units = Pipeline::load_with_work(&tiny_pipeline(), Some(dir.path().join("w"))).unwrap();
+    run(
+        &units,
+        &RunOptions {
+            until: Some("refine".into()),
+            ..RunOptions::default()
+        },
+    )
+    .unwrap();
+    let unit = |r: std::ops::Range<usize>| {
+        let report = run(
+            &units,
+            &RunOptions {
+                shards: Some(r),
+                ..RunOptions::default()
+            },
+        )
+        .unwrap();
+        let shard = report.stages.iter().find(|s| s.stage == "shard").unwrap();
+        assert_eq!(shard.status, Status::Ran, "{}", report.table());
+        assert!(matches!(report.status("train"), Some(Status::Off(_))));
+        shard.note.clone()
+    };
+    // The tiny scene has one training and one test shard.
+    assert!(unit(1..2).contains("other units pending"));
+    assert!(!units.stage_dir("shard").join("manifest.json").exists());
+    assert!(unit(0..1).contains("the set is complete"));
+    let manifest = units.stage_dir("shard").join("manifest.json");
+    let merged = std::fs::read(&manifest).unwrap();
+    // One run over the whole plan, from the same inputs (the frames table holds the
+    // work folder's paths, so the comparison stays in one folder).
+    std::fs::remove_dir_all(units.stage_dir("shard")).unwrap();
+    let whole = run(&units, &quiet()).unwrap();
+    assert_eq!(whole.status("shard"), Some(&Status::Ran));
+    assert_eq!(std::fs::read(&manifest).unwrap(), merged);
+}
+
+/// `--compare-refine`: the pipeline with and without `[refine]` side by side; the data
+/// stages are shared, the variant's shards differ (other labels).
+#[test]
+fn label_ablation_in_one_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(tiny_pipeline()).unwrap();
+    let recipe = "iterations = 100\ncheckpoint_every = 50\n";
+    let text = text.replace(recipe, "iterations = 3\ncheckpoint_every = 3\n");
+    let path = dir.path().join("p.toml");
+    std::fs::write(&path, format!("{text}max_iterations = 300\n")).unwrap();
+    let p = Pipeline::load_with_work(&path, Some(dir.path().join("w"))).unwrap();
+    let a = pipeline::run_ablation(&p, &RunOptions::default()).unwrap();
+    assert_eq!(a.imported.status("import"), Some(&Status::Skipped));
+    assert!(matches!(a.imported.status("refine"), Some(Status::Off(_))));
+    let imported = p.work.join("without-refine");
+    for stage in ["shard", "train", "score"] {
+        assert!(imported.join(stage).join("stage.json").is_file(), "{stage}");
+    }
+    let manifest = |d: &Path| std::fs::read(d.join("shard/manifest.json")).unwrap();
+    assert_ne!(manifest(&p.work), manifest(&imported));
+    let table = a.table();
+    assert_eq!(
+        table
+            .lines()
+            .filter(|l| l.starts_with("| refined |"))
+            .count(),
+        2,
+        "{table}"
+    );
+    assert_eq!(
+        table
+            .lines()
+            .filter(|l| l.starts_with("| as imported |"))
+            .count(),
+        2,
+        "{table}"
+    );
+    assert!(table.contains("5 cm 5 deg"), "{table}");
+    // Without [refine] there is nothing to compare.
+    let err = pipeline::run_ablation(&p.without_refine(), &RunOptions::default()).unwrap_err();
+    assert!(err.to_string().contains("needs [refine]"), "{err}");
 }

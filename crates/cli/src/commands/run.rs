@@ -2,6 +2,7 @@
 //! `<work>/<stage>/`; a stage whose record matches is skipped.
 
 use anyhow::Context;
+use std::ops::Range;
 use std::path::PathBuf;
 
 #[derive(clap::Args, Debug)]
@@ -14,21 +15,89 @@ pub struct Args {
     /// Last stage to run: synth, ingest, import, refine, shard, train or score.
     #[arg(long)]
     pub until: Option<String>,
+    /// One scene of a multi-scene dataset (a work unit): replaces `ingest.scene` and
+    /// `${SCENE}` in the file's paths.
+    #[arg(long)]
+    pub scene: Option<String>,
+    /// A work unit of the shard stage: shards a..b of its plan (end exclusive); the
+    /// stages after it run once every unit is done.
+    #[arg(long, value_parser = parse_range)]
+    pub shards: Option<Range<usize>>,
+    /// Nightly retraining: continue from this model ([warm_start] says how many
+    /// iterations) when the training shards changed since the last model.
+    #[arg(long)]
+    pub warm_start: Option<PathBuf>,
+    /// Label ablation: also run the pipeline without [refine] (shards, model and score
+    /// in <work>/without-refine/) and print both scores in one table.
+    #[arg(long)]
+    pub compare_refine: bool,
+}
+
+fn parse_range(s: &str) -> Result<Range<usize>, String> {
+    let (a, b) = s
+        .split_once("..")
+        .ok_or_else(|| format!("{s:?}: expected a..b (e.g. 0..4)"))?;
+    let num = |x: &str| {
+        x.trim()
+            .parse::<usize>()
+            .map_err(|e| format!("{s:?}: {x:?} is not a shard index: {e}"))
+    };
+    let r = num(a)?..num(b)?;
+    if r.start >= r.end {
+        return Err(format!("{s:?}: the range is empty"));
+    }
+    Ok(r)
 }
 
 pub fn run(args: Args, quiet: bool) -> anyhow::Result<()> {
-    let p = pipeline::Pipeline::load_with_work(&args.pipeline, args.work)?;
+    let p = pipeline::Pipeline::load_unit(&args.pipeline, args.work, args.scene.as_deref())?;
     let options = pipeline::RunOptions {
         until: args.until,
         progress: !quiet,
+        warm_start: args.warm_start,
+        shards: args.shards,
     };
-    let report = pipeline::run(&p, &options)
-        .with_context(|| format!("running {}", args.pipeline.display()))?;
+    let context = || format!("running {}", args.pipeline.display());
     println!(
         "{} (work folder {})",
         args.pipeline.display(),
         p.work.display()
     );
+    if args.compare_refine {
+        let a = pipeline::run_ablation(&p, &options).with_context(context)?;
+        println!("with [refine]:");
+        print!("{}", a.refined.table());
+        println!(
+            "\nwithout [refine] ({}):",
+            p.without_refine()
+                .work
+                .join(pipeline::WITHOUT_REFINE)
+                .display()
+        );
+        print!("{}", a.imported.table());
+        println!("\nscore on the test frames, labels refined on depth vs as imported:\n");
+        print!("{}", a.table());
+        return Ok(());
+    }
+    let report = pipeline::run(&p, &options).with_context(context)?;
     print!("{}", report.table());
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::parse_range;
+
+    #[test]
+    fn shard_ranges() {
+        assert_eq!(parse_range("0..4").unwrap(), 0..4);
+        assert_eq!(parse_range(" 2 .. 3").unwrap(), 2..3);
+        assert!(parse_range("3..3").unwrap_err().contains("empty"));
+        assert!(parse_range("4").unwrap_err().contains("expected a..b"));
+        assert!(
+            parse_range("a..2")
+                .unwrap_err()
+                .contains("not a shard index")
+        );
+    }
 }

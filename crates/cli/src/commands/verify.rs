@@ -41,6 +41,7 @@ pub fn lock(args: LockArgs, quiet: bool) -> anyhow::Result<()> {
     let options = pipeline::RunOptions {
         until: Some("shard".into()),
         progress: !quiet,
+        ..Default::default()
     };
     let report = pipeline::run(&p, &options)
         .with_context(|| format!("running {}", args.pipeline.display()))?;

@@ -1,0 +1,114 @@
+//! The label ablation in one command (`pl2map run PIPELINE --compare-refine`): the
+//! pipeline as written (labels refined on depth) and the same pipeline on the imported
+//! labels as they are, scored side by side. The data stages (synth, ingest, import,
+//! refine) are shared; the variant without refinement keeps its shards, model and score
+//! in `<work>/without-refine/`. Both runs are recorded stages, so a rerun only redoes
+//! what changed.
+
+use crate::config::Pipeline;
+use crate::error::{PipelineError, Result};
+use crate::run::{RunOptions, RunReport, run};
+use score::Summary;
+use score::summary::fmt_value;
+
+/// Both runs and their scores.
+#[derive(Clone, Debug)]
+pub struct Ablation {
+    pub refined: RunReport,
+    pub imported: RunReport,
+    pub refined_score: Summary,
+    pub imported_score: Summary,
+}
+
+/// Runs `p` (which must refine, train and score) and its variant without refinement.
+pub fn run_ablation(p: &Pipeline, options: &RunOptions) -> Result<Ablation> {
+    let missing: Vec<&str> = [
+        ("[refine]", p.refine.is_some()),
+        ("[train]", p.file.train.is_some()),
+        ("[score]", p.file.score.is_some()),
+    ]
+    .into_iter()
+    .filter(|(_, has)| !has)
+    .map(|(name, _)| name)
+    .collect();
+    if !missing.is_empty() {
+        return Err(PipelineError::Config {
+            path: p.origin.clone(),
+            message: format!(
+                "--compare-refine scores the pipeline with and without [refine]: it needs {}",
+                missing.join(", ")
+            ),
+        });
+    }
+    if options.until.is_some() || options.shards.is_some() {
+        return Err(PipelineError::Config {
+            path: p.origin.clone(),
+            message: "--compare-refine runs both pipelines to the score: drop --until / --shards"
+                .into(),
+        });
+    }
+    let refined = run(p, options)?;
+    let without = p.without_refine();
+    let imported = run(&without, options)?;
+    let read = |q: &Pipeline| {
+        let path = q.stage_dir("score").join(score::run::SUMMARY_JSON_FILE);
+        Summary::read_json(&path).map_err(|e| PipelineError::Stage {
+            stage: "score",
+            message: e.to_string(),
+        })
+    };
+    Ok(Ablation {
+        refined,
+        imported,
+        refined_score: read(p)?,
+        imported_score: read(&without)?,
+    })
+}
+
+impl Ablation {
+    /// One markdown table: a row per (labels, variant), the medians and the strict
+    /// accuracies at every threshold.
+    pub fn table(&self) -> String {
+        let thresholds: Vec<String> = self
+            .refined_score
+            .variants
+            .first()
+            .map(|v| {
+                v.accuracy
+                    .iter()
+                    .map(|a| format!("{} cm {} deg", a.cm, a.deg))
+                    .collect()
+            })
+            .unwrap_or_default();
+        let mut s = format!(
+            "| labels | variant | frames | localised | median cm | median deg | {} |\n",
+            thresholds.join(" | ")
+        );
+        s.push_str(&format!(
+            "|---|---|---:|---:|---:|---:|{}\n",
+            "---:|".repeat(thresholds.len())
+        ));
+        for (labels, summary) in [
+            ("refined", &self.refined_score),
+            ("as imported", &self.imported_score),
+        ] {
+            for v in &summary.variants {
+                let acc: Vec<String> = v
+                    .accuracy
+                    .iter()
+                    .map(|a| format!("{:.1} %", 100.0 * a.fraction))
+                    .collect();
+                s.push_str(&format!(
+                    "| {labels} | {} | {} | {} | {} | {} | {} |\n",
+                    v.variant.label(),
+                    v.frames,
+                    v.localised,
+                    fmt_value(v.median_cm),
+                    fmt_value(v.median_deg),
+                    acc.join(" | ")
+                ));
+            }
+        }
+        s
+    }
+}

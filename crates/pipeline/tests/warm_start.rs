@@ -1,0 +1,173 @@
+//! Nightly retraining on the tiny synthetic scene: a first night with three of the four
+//! training sequences, then the fourth sequence arrives and `--warm-start` continues
+//! from the first night's model on the new shards. The score on the (unchanged) test
+//! frames must not get worse, and a third run with nothing new does nothing.
+
+use pipeline::{Pipeline, RunOptions, Status, run};
+use score::Summary;
+use std::path::{Path, PathBuf};
+
+fn tiny_text() -> String {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../pipeline/synthetic-tiny.toml");
+    std::fs::read_to_string(path).unwrap()
+}
+
+/// The tiny pipeline with a small network, a capped RANSAC and `extra_synth` added to
+/// `[synth]`.
+fn pipeline_text(extra_synth: &str) -> String {
+    let text = tiny_text();
+    let train = "iterations = 100\ncheckpoint_every = 50\nseed = 0\n";
+    assert!(text.contains(train), "the tiny pipeline's [train] changed");
+    let text = text.replace(
+        train,
+        "iterations = 300\nbatch_frames = 4\ncheckpoint_every = 1000\nseed = 0\nlearning_rate = 1e-3\n\
+         [train.model]\ndescriptor_dim = 128\nheads = 4\nline_tokens = 12\nffn_dim = 256\n\
+         layers = [\"self\", \"cross\"]\nhead_hidden = [256, 256]\ndropout = 0.1\n\
+         reliability_beta = 100.0\npoint_input_scale = 11.3137\n\
+         [train.limits]\nmax_keypoints = 64\nmax_lines = 8\n",
+    );
+    let text = text.replace("tiny = true\n", &format!("tiny = true\n{extra_synth}"));
+    format!("{text}max_iterations = 2000\n\n[warm_start]\niterations = 150\n")
+}
+
+fn load(dir: &Path, text: &str) -> Pipeline {
+    let path = dir.join("p.toml");
+    std::fs::write(&path, text).unwrap();
+    Pipeline::load_with_work(&path, Some(dir.join("work"))).unwrap()
+}
+
+fn summary(p: &Pipeline) -> Summary {
+    Summary::read_json(&p.stage_dir("score").join("summary.json")).unwrap()
+}
+
+/// Median distance between the model's points and the labels over the labelled
+/// keypoints of the training frames whose name starts with `prefix`.
+fn median_label_error(model: &Path, shard_dir: &Path, prefix: &str) -> f64 {
+    let predictor = train::Predictor::load(model).unwrap();
+    let manifest = shards::Manifest::load(shard_dir.join("manifest.json")).unwrap();
+    let paths: Vec<PathBuf> = manifest
+        .shards
+        .iter()
+        .filter(|s| s.file.starts_with("train-"))
+        .map(|s| shard_dir.join(&s.file))
+        .collect();
+    let mut errors = Vec::new();
+    for frame in shards::ShardReader::open(&paths).unwrap() {
+        let f = frame.unwrap();
+        if !f.name.starts_with(prefix) {
+            continue;
+        }
+        let gray = train::sample::decode_gray(&f).unwrap();
+        let p = predictor.predict_at(&gray, &f.keypoints, &[]).unwrap();
+        for (i, k) in p.points.iter().enumerate() {
+            if f.point_valid[i] {
+                let d: f64 = (0..3).map(|c| (k.xyz[c] - f.points3d[i][c]).powi(2)).sum();
+                errors.push(d.sqrt());
+            }
+        }
+    }
+    assert!(
+        errors.len() > 100,
+        "{} labelled keypoints in {prefix}*",
+        errors.len()
+    );
+    errors.sort_by(f64::total_cmp);
+    errors[errors.len() / 2]
+}
+
+fn print(what: &str, s: &Summary) {
+    for v in &s.variants {
+        let acc: Vec<String> = v
+            .accuracy
+            .iter()
+            .map(|a| format!("{:.3}", a.fraction))
+            .collect();
+        println!(
+            "{what} {:?}: localised {}/{}, median {:.2} cm {:.2} deg, accuracy {}",
+            v.variant,
+            v.localised,
+            v.frames,
+            v.median_cm,
+            v.median_deg,
+            acc.join(" ")
+        );
+    }
+}
+
+#[test]
+fn a_new_sequence_retrains_warm_and_the_score_does_not_get_worse() {
+    let dir = tempfile::tempdir().unwrap();
+    let quiet = RunOptions::default();
+
+    // Night 1: three training sequences, trained from scratch.
+    let night1 = load(dir.path(), &pipeline_text("train_sequences = 3\n"));
+    let r1 = run(&night1, &quiet).unwrap();
+    assert!(
+        r1.stages.iter().all(|s| s.status == Status::Ran),
+        "{}",
+        r1.table()
+    );
+    let s1 = summary(&night1);
+    let model: PathBuf = night1.stage_dir("train").join("model.ckpt");
+    let model1 = std::fs::read(&model).unwrap();
+    std::fs::write(dir.path().join("model1.ckpt"), &model1).unwrap();
+
+    // Night 2: the fourth sequence was recorded; warm start from night 1's model.
+    let night2 = load(dir.path(), &pipeline_text(""));
+    let warm = RunOptions {
+        warm_start: Some(model.clone()),
+        ..RunOptions::default()
+    };
+    let r2 = run(&night2, &warm).unwrap();
+    assert!(
+        r2.stages.iter().all(|s| s.status == Status::Ran),
+        "{}",
+        r2.table()
+    );
+    let note = &r2.stages.iter().find(|s| s.stage == "train").unwrap().note;
+    assert!(
+        note.contains("warm start") && note.contains("150 iterations"),
+        "{note}"
+    );
+    // The pipeline kept its own copy of the model it continued from.
+    let copy = std::fs::read(night2.stage_dir("train").join("warm-start.ckpt")).unwrap();
+    assert_eq!(copy, model1);
+    let s2 = summary(&night2);
+    print("night 1", &s1);
+    print("night 2", &s2);
+    for (a, b) in s1.variants.iter().zip(&s2.variants) {
+        assert_eq!(a.frames, b.frames, "the test frames are the same");
+        assert!(
+            b.median_cm <= a.median_cm,
+            "{:?}: median {} -> {} cm",
+            a.variant,
+            a.median_cm,
+            b.median_cm
+        );
+        for (x, y) in a.accuracy.iter().zip(&b.accuracy) {
+            assert!(
+                y.fraction >= x.fraction,
+                "{:?} at {} cm: {} -> {}",
+                a.variant,
+                x.cm,
+                x.fraction,
+                y.fraction
+            );
+        }
+    }
+
+    // What night 2 learned: the new sequence's labels, which night 1 never saw.
+    let shard_dir = night2.stage_dir("shard");
+    let before = median_label_error(&dir.path().join("model1.ckpt"), &shard_dir, "seq-05/");
+    let after = median_label_error(&model, &shard_dir, "seq-05/");
+    println!("new sequence: median 3D error of its labels {before:.3} m -> {after:.3} m");
+    assert!(after < 0.8 * before, "{before} -> {after}");
+
+    // Night 3: nothing new: the warm start has nothing to learn from.
+    let r3 = run(&night2, &warm).unwrap();
+    assert!(
+        r3.stages.iter().all(|s| s.status == Status::Skipped),
+        "{}",
+        r3.table()
+    );
+}
