@@ -123,13 +123,25 @@ pub struct Similarity {
 }
 
 impl Similarity {
+    fn is_identity(&self) -> bool {
+        self.scale == 1.0 && self.theta == 0.0
+    }
+
     pub fn apply(&self, p: &Vector2<f64>) -> Vector2<f64> {
+        // Exactly the identity (p - c + c is not p in floating point): an unaugmented
+        // sample keeps its positions bit for bit, which the descriptor cache relies on.
+        if self.is_identity() {
+            return *p;
+        }
         let (s, c) = self.theta.sin_cos();
         let d = p - self.centre;
         self.scale * Vector2::new(c * d.x - s * d.y, s * d.x + c * d.y) + self.scale * self.centre
     }
 
     pub fn inverse_apply(&self, q: &Vector2<f64>) -> Vector2<f64> {
+        if self.is_identity() {
+            return *q;
+        }
         let (s, c) = self.theta.sin_cos();
         let d = (q - self.scale * self.centre) / self.scale;
         Vector2::new(c * d.x + s * d.y, -s * d.x + c * d.y) + self.centre

@@ -38,6 +38,9 @@ pub struct TrainConfig {
     pub shuffle_buffer: usize,
     /// Prepared samples kept ready by the background thread.
     pub prefetch: usize,
+    /// Memory for the descriptors of unaugmented images (MiB; 0: none): such a sample
+    /// then needs no front-end call. Changes speed only, never values.
+    pub descriptor_cache_mib: usize,
 }
 
 impl Default for TrainConfig {
@@ -57,6 +60,7 @@ impl Default for TrainConfig {
             limits: Limits::default(),
             shuffle_buffer: 64,
             prefetch: 4,
+            descriptor_cache_mib: 1024,
         }
     }
 }

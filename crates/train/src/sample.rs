@@ -84,6 +84,61 @@ fn subsample<R: Rng>(len: usize, max: usize, rng: &mut R) -> Vec<usize> {
     picked
 }
 
+/// Descriptors of whole frames as they are (no augmentation), by frame id, so that an
+/// unaugmented sample needs no front-end call. Every keypoint of a kind has the same
+/// fixed size, so a subset's descriptors equal the rows of the whole set's (the
+/// test `cached_descriptors_are_the_described_ones` holds that). Filled up to a byte
+/// budget; frames past it are described each time (same values, more time).
+#[derive(Debug, Default)]
+pub struct DescriptorCache {
+    frames: std::collections::HashMap<u64, (Vec<f32>, Vec<f32>)>,
+    bytes: usize,
+    budget_bytes: usize,
+}
+
+impl DescriptorCache {
+    pub fn new(budget_mib: usize) -> Self {
+        DescriptorCache {
+            budget_bytes: budget_mib << 20,
+            ..Default::default()
+        }
+    }
+
+    pub fn len(&self) -> usize {
+        self.frames.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.frames.is_empty()
+    }
+
+    /// (point rows, line rows) of `frame`'s keypoints and segments, described once.
+    fn get(
+        &mut self,
+        frame: &FrameRecord,
+        image: &GrayImage,
+        fe: &FrontEndConfig,
+    ) -> Result<Option<&(Vec<f32>, Vec<f32>)>, TrainError> {
+        if !self.frames.contains_key(&frame.frame_id) {
+            let p = features::describe_points(image, &frame.keypoints, &fe.sift, &fe.descriptor)?;
+            let l = features::describe_lines(
+                image,
+                &frame.segments,
+                fe.samples_per_line,
+                &fe.sift,
+                &fe.descriptor,
+            )?;
+            let size = 4 * (p.len() + l.len());
+            if self.bytes + size > self.budget_bytes {
+                return Ok(None);
+            }
+            self.bytes += size;
+            self.frames.insert(frame.frame_id, (p, l));
+        }
+        Ok(self.frames.get(&frame.frame_id))
+    }
+}
+
 /// Builds the sample of `frame`. With `augment = None` the frame is used as it is (the
 /// limits still apply).
 pub fn prepare<R: Rng>(
@@ -92,6 +147,18 @@ pub fn prepare<R: Rng>(
     augment: Option<&AugmentConfig>,
     limits: &Limits,
     rng: &mut R,
+) -> Result<Prepared, TrainError> {
+    prepare_with_cache(frame, front_end, augment, limits, rng, None)
+}
+
+/// [`prepare`], taking the descriptors of an unaugmented sample from `cache`.
+pub fn prepare_with_cache<R: Rng>(
+    frame: &FrameRecord,
+    front_end: &FrontEndConfig,
+    augment: Option<&AugmentConfig>,
+    limits: &Limits,
+    rng: &mut R,
+    cache: Option<&mut DescriptorCache>,
 ) -> Result<Prepared, TrainError> {
     let gray = decode_gray(frame)?;
     if (gray.width() as u64, gray.height() as u64) != (frame.camera.width, frame.camera.height) {
@@ -127,19 +194,51 @@ pub fn prepare<R: Rng>(
     let segments: Vec<[f64; 4]> = seg_pick.iter().map(|&k| aug.segments[k]).collect();
     let segment_index: Vec<usize> = seg_pick.iter().map(|&k| aug.segment_index[k]).collect();
 
-    let point_descriptors = features::describe_points(
-        &aug.image,
-        &keypoints,
-        &front_end.sift,
-        &front_end.descriptor,
-    )?;
-    let line_descriptors = features::describe_lines(
-        &aug.image,
-        &segments,
-        front_end.samples_per_line,
-        &front_end.sift,
-        &front_end.descriptor,
-    )?;
+    // The identity leaves every position exactly as it was (checked, not assumed).
+    let unchanged = params == AugmentParams::IDENTITY
+        && keypoint_index
+            .iter()
+            .zip(&keypoints)
+            .all(|(&i, k)| frame.keypoints[i] == *k)
+        && segment_index
+            .iter()
+            .zip(&segments)
+            .all(|(&j, s)| frame.segments[j] == *s);
+    let cached = match cache {
+        Some(c) if unchanged => c.get(frame, &aug.image, front_end)?,
+        _ => None,
+    };
+    let (point_descriptors, line_descriptors) = match cached {
+        Some((p, l)) => {
+            let d = features::SIFT_DIM;
+            let td = front_end.samples_per_line * d;
+            (
+                keypoint_index
+                    .iter()
+                    .flat_map(|&i| p[i * d..(i + 1) * d].iter().copied())
+                    .collect(),
+                segment_index
+                    .iter()
+                    .flat_map(|&j| l[j * td..(j + 1) * td].iter().copied())
+                    .collect(),
+            )
+        }
+        None => (
+            features::describe_points(
+                &aug.image,
+                &keypoints,
+                &front_end.sift,
+                &front_end.descriptor,
+            )?,
+            features::describe_lines(
+                &aug.image,
+                &segments,
+                front_end.samples_per_line,
+                &front_end.sift,
+                &front_end.descriptor,
+            )?,
+        ),
+    };
 
     let f32x = |v: &[f64]| -> Vec<f32> { v.iter().map(|&x| x as f32).collect() };
     let point_valid: Vec<bool> = keypoint_index
@@ -398,6 +497,40 @@ mod tests {
         for (k, &i) in a.keypoint_index.iter().enumerate() {
             assert_eq!(a.sample.keypoints[k][0], f.keypoints[i][0] as f32);
         }
+    }
+
+    /// A cached unaugmented sample is exactly the described one, for many subsets; an
+    /// augmented one bypasses the cache; a zero budget caches nothing.
+    #[test]
+    fn cached_descriptors_are_the_described_ones() {
+        let f = frame(3, 40, 6, 0.0);
+        let fe = front_end();
+        let limits = Limits {
+            max_keypoints: 12,
+            max_lines: 3,
+        };
+        let mut cache = DescriptorCache::new(64);
+        for seed in 0..6 {
+            let mut r1 = seeds::rng(seed, Purpose::Sample, 0);
+            let mut r2 = seeds::rng(seed, Purpose::Sample, 0);
+            let plain = prepare(&f, &fe, None, &limits, &mut r1).unwrap();
+            let cached =
+                prepare_with_cache(&f, &fe, None, &limits, &mut r2, Some(&mut cache)).unwrap();
+            assert_eq!(plain.sample, cached.sample, "seed {seed}");
+        }
+        assert_eq!(cache.len(), 1);
+        let aug = AugmentConfig {
+            probability: 1.0,
+            ..AugmentConfig::default()
+        };
+        let mut fresh = DescriptorCache::new(64);
+        let mut r = seeds::rng(1, Purpose::Sample, 0);
+        prepare_with_cache(&f, &fe, Some(&aug), &limits, &mut r, Some(&mut fresh)).unwrap();
+        assert!(fresh.is_empty());
+        let mut none = DescriptorCache::new(0);
+        let mut r = seeds::rng(1, Purpose::Sample, 0);
+        prepare_with_cache(&f, &fe, None, &limits, &mut r, Some(&mut none)).unwrap();
+        assert!(none.is_empty());
     }
 
     #[test]

@@ -19,7 +19,7 @@ use crate::config::TrainConfig;
 use crate::error::{TrainError, io_err};
 use crate::metrics::{MetricsRow, MetricsWriter};
 use crate::plot::{PLOT_FILE, plot_metrics};
-use crate::sample::{label_centre, prepare, recentre};
+use crate::sample::{DescriptorCache, label_centre, prepare_with_cache, recentre};
 use crate::seeds::{self, Purpose};
 use crate::stream::{FrameStream, StreamConfig};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -199,9 +199,11 @@ pub fn train_on<B: AutodiffBackend + Pl2MapBackend>(
         config.seed,
     );
     let batch = config.batch_frames as u64;
+    let mut cache = DescriptorCache::new(config.descriptor_cache_mib);
     let mut stream = FrameStream::start(shards, stream_cfg, start * batch, move |at, frame| {
         let mut rng = seeds::rng(seed, Purpose::Sample, at.position);
-        let mut p = prepare(&frame, &fe, Some(&aug), &limits, &mut rng)?;
+        let mut p =
+            prepare_with_cache(&frame, &fe, Some(&aug), &limits, &mut rng, Some(&mut cache))?;
         recentre(&mut p.sample, &centre);
         Ok(p)
     })?;
