@@ -9,7 +9,7 @@ use crate::config::Pipeline;
 use crate::error::{PipelineError, Result};
 use crate::run::{RunOptions, RunReport, run};
 use score::Summary;
-use score::summary::fmt_value;
+use score::summary::{align_cells, header_cells};
 
 /// Both runs and their scores.
 #[derive(Clone, Debug)]
@@ -67,46 +67,15 @@ pub fn run_ablation(p: &Pipeline, options: &RunOptions) -> Result<Ablation> {
 
 impl Ablation {
     /// One markdown table: a row per (labels, variant), the medians and the strict
-    /// accuracies at every threshold.
+    /// accuracies at every threshold (the score summary's own cells).
     pub fn table(&self) -> String {
-        let thresholds: Vec<String> = self
-            .refined_score
-            .variants
-            .first()
-            .map(|v| {
-                v.accuracy
-                    .iter()
-                    .map(|a| format!("{} cm {} deg", a.cm, a.deg))
-                    .collect()
-            })
-            .unwrap_or_default();
-        let mut s = format!(
-            "| labels | variant | frames | localised | median cm | median deg | {} |\n",
-            thresholds.join(" | ")
-        );
-        s.push_str(&format!(
-            "|---|---|---:|---:|---:|---:|{}\n",
-            "---:|".repeat(thresholds.len())
-        ));
+        let mut s = format!("| labels |{}\n|---|{}\n", header_cells(), align_cells());
         for (labels, summary) in [
             ("refined", &self.refined_score),
             ("as imported", &self.imported_score),
         ] {
             for v in &summary.variants {
-                let acc: Vec<String> = v
-                    .accuracy
-                    .iter()
-                    .map(|a| format!("{:.1} %", 100.0 * a.fraction))
-                    .collect();
-                s.push_str(&format!(
-                    "| {labels} | {} | {} | {} | {} | {} | {} |\n",
-                    v.variant.label(),
-                    v.frames,
-                    v.localised,
-                    fmt_value(v.median_cm),
-                    fmt_value(v.median_deg),
-                    acc.join(" | ")
-                ));
+                s.push_str(&format!("| {labels} |{}\n", v.row_cells()));
             }
         }
         s

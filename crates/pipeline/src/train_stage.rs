@@ -46,26 +46,16 @@ impl Default for ScoreSection {
 }
 
 impl ScoreSection {
-    /// As `pl2map score`: the Cauchy scale of the final refinement is half the point
-    /// threshold for both kinds.
+    /// The same configuration `pl2map score` builds from its flags.
     pub fn config(&self) -> score::ScoreConfig {
-        let defaults = pose::RansacOptions::default();
-        score::ScoreConfig {
-            min_point_reliability: self.min_point_reliability,
-            min_line_reliability: self.min_line_reliability,
-            ransac: pose::RansacOptions {
-                point_threshold_px: self.point_threshold_px,
-                line_threshold_px: self.line_threshold_px,
-                seed: self.seed,
-                point_loss_scale_px: 0.5 * self.point_threshold_px,
-                line_loss_scale_px: 0.5 * self.point_threshold_px,
-                max_iterations: self.max_iterations.unwrap_or(defaults.max_iterations),
-                min_iterations: defaults
-                    .min_iterations
-                    .min(self.max_iterations.unwrap_or(usize::MAX)),
-                ..defaults
-            },
-        }
+        score::ScoreConfig::with_ransac(
+            self.min_point_reliability,
+            self.min_line_reliability,
+            self.point_threshold_px,
+            self.line_threshold_px,
+            self.seed,
+            self.max_iterations,
+        )
     }
 }
 

@@ -61,6 +61,36 @@ impl Default for ScoreConfig {
 }
 
 impl ScoreConfig {
+    /// The configuration `pl2map score` and the pipeline's `[score]` build: RANSAC with
+    /// these thresholds and seed, the final refinement's Cauchy scale half the point
+    /// threshold for both kinds (6 px for the default 12 px, as `pl2map pose`), and the
+    /// iteration cap (None: the default) bounding the minimum too.
+    pub fn with_ransac(
+        min_point_reliability: f64,
+        min_line_reliability: f64,
+        point_threshold_px: f64,
+        line_threshold_px: f64,
+        seed: u64,
+        max_iterations: Option<usize>,
+    ) -> Self {
+        let defaults = RansacOptions::default();
+        let max_iterations = max_iterations.unwrap_or(defaults.max_iterations);
+        ScoreConfig {
+            min_point_reliability,
+            min_line_reliability,
+            ransac: RansacOptions {
+                point_threshold_px,
+                line_threshold_px,
+                seed,
+                point_loss_scale_px: 0.5 * point_threshold_px,
+                line_loss_scale_px: 0.5 * point_threshold_px,
+                max_iterations,
+                min_iterations: defaults.min_iterations.min(max_iterations),
+                ..defaults
+            },
+        }
+    }
+
     pub fn validate(&self) -> Result<(), ScoreError> {
         for (name, v) in [
             ("min_point_reliability", self.min_point_reliability),

@@ -90,6 +90,42 @@ pub(crate) fn summarize_variant(results: &[FrameResult], v: Variant) -> VariantS
     }
 }
 
+/// The header cells of a variant row (see [`VariantSummary::row_cells`]), each closed
+/// by `|`: variant, frames, localised, medians, one per accuracy threshold.
+pub fn header_cells() -> String {
+    let mut s = String::from(" variant | frames | localised | median cm | median deg |");
+    for &(c, d) in &ACCURACY_THRESHOLDS {
+        s.push_str(&format!(" {} cm {} deg |", fmt_thr(c), fmt_thr(d)));
+    }
+    s
+}
+
+/// The markdown alignment cells matching [`header_cells`].
+pub fn align_cells() -> String {
+    format!(
+        "---|---:|---:|---:|---:|{}",
+        "---:|".repeat(ACCURACY_THRESHOLDS.len())
+    )
+}
+
+impl VariantSummary {
+    /// The cells of this variant's table row, matching [`header_cells`].
+    pub fn row_cells(&self) -> String {
+        let mut s = format!(
+            " {} | {} | {} | {} | {} |",
+            self.variant.label(),
+            self.frames,
+            self.localised,
+            fmt_value(self.median_cm),
+            fmt_value(self.median_deg)
+        );
+        for a in &self.accuracy {
+            s.push_str(&format!(" {:.1} % |", 100.0 * a.fraction));
+        }
+        s
+    }
+}
+
 /// A number for the tables: 2 decimals, or 2 significant digits when tiny (the oracle's
 /// errors are far below 0.01), `inf` / `-` for failures and empty sets.
 pub fn fmt_value(v: f64) -> String {
@@ -137,29 +173,15 @@ impl Summary {
             "- RANSAC: point threshold {} px, line threshold {} px, seed {}\n\n",
             self.point_threshold_px, self.line_threshold_px, self.seed
         ));
-        s.push_str("| variant | frames | localised | median cm | median deg |");
-        for &(c, d) in &ACCURACY_THRESHOLDS {
-            s.push_str(&format!(" {} cm {} deg |", fmt_thr(c), fmt_thr(d)));
-        }
-        s.push_str(" inliers (pts / lines) |\n|---|---:|---:|---:|---:|");
-        for _ in &ACCURACY_THRESHOLDS {
-            s.push_str("---:|");
-        }
-        s.push_str("---:|\n");
+        s.push_str(&format!(
+            "|{} inliers (pts / lines) |\n|{}---:|\n",
+            header_cells(),
+            align_cells()
+        ));
         for v in &self.variants {
             s.push_str(&format!(
-                "| {} | {} | {} | {} | {} |",
-                v.variant.label(),
-                v.frames,
-                v.localised,
-                fmt_value(v.median_cm),
-                fmt_value(v.median_deg)
-            ));
-            for a in &v.accuracy {
-                s.push_str(&format!(" {:.1} % |", 100.0 * a.fraction));
-            }
-            s.push_str(&format!(
-                " {} / {} |\n",
+                "|{} {} / {} |\n",
+                v.row_cells(),
                 fmt_count(v.median_point_inliers),
                 fmt_count(v.median_line_inliers)
             ));

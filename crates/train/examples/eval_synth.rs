@@ -8,40 +8,13 @@
 //!
 //! cargo run -p train --example eval_synth -- MODEL.ckpt SHARD_DIR SCENE_ROOT [test|train] [MAX_FRAMES]
 
+mod common;
+
+use common::{depth_at, load_depth};
 use geometry::{Vector2, Vector3};
-use image::{ImageBuffer, Luma};
 use shards::{Manifest, ShardReader, Split};
 use std::path::{Path, PathBuf};
 use train::Predictor;
-
-fn depth_at(depth: &ImageBuffer<Luma<u16>, Vec<u16>>, xy: [f64; 2]) -> Option<f64> {
-    // COLMAP pixel centres at +0.5.
-    let (fx, fy) = (xy[0] - 0.5, xy[1] - 0.5);
-    let (x0, y0) = (fx.floor(), fy.floor());
-    let (ax, ay) = (fx - x0, fy - y0);
-    let mut inv = 0.0;
-    let (mut lo, mut hi) = (f64::INFINITY, 0f64);
-    for (dx, dy, w) in [
-        (0.0, 0.0, (1.0 - ax) * (1.0 - ay)),
-        (1.0, 0.0, ax * (1.0 - ay)),
-        (0.0, 1.0, (1.0 - ax) * ay),
-        (1.0, 1.0, ax * ay),
-    ] {
-        let (x, y) = (x0 + dx, y0 + dy);
-        if x < 0.0 || y < 0.0 || x >= depth.width() as f64 || y >= depth.height() as f64 {
-            return None;
-        }
-        let d = depth.get_pixel(x as u32, y as u32)[0];
-        if d == 0 || d == u16::MAX {
-            return None;
-        }
-        let z = d as f64 / 1000.0;
-        lo = lo.min(z);
-        hi = hi.max(z);
-        inv += w / z;
-    }
-    (hi <= lo * 1.01).then(|| 1.0 / inv)
-}
 
 fn median(v: &mut [f64]) -> f64 {
     if v.is_empty() {
@@ -98,8 +71,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
         frames += 1;
         let gray = image::load_from_memory(&frame.image_bytes)?.to_luma8();
-        let stem = frame.name.strip_suffix(".color.png").unwrap_or(&frame.name);
-        let depth = image::open(root.join(format!("{stem}.depth.png")))?.to_luma16();
+        let depth = load_depth(root, &frame.name)?;
         let pred = predictor.predict(&gray, &frame.camera)?;
         let inv = frame.pose.inverse();
         for p in &pred.points {

@@ -5,22 +5,12 @@
 //!
 //! cargo run --release -p train --example nn_baseline -- MODEL.ckpt SHARD_DIR SCENE_ROOT [TEST_FRAMES] [PER_FRAME]
 
+mod common;
+
+use common::{depth_at, load_depth};
 use geometry::{Vector2, Vector3};
 use shards::{Manifest, ShardReader, Split};
 use std::path::{Path, PathBuf};
-
-fn depth_z(root: &Path, name: &str, xy: [f64; 2]) -> Option<f64> {
-    let stem = name.strip_suffix(".color.png").unwrap_or(name);
-    let depth = image::open(root.join(format!("{stem}.depth.png")))
-        .ok()?
-        .to_luma16();
-    let (x, y) = ((xy[0] - 0.5).round() as i64, (xy[1] - 0.5).round() as i64);
-    if x < 0 || y < 0 || x >= depth.width() as i64 || y >= depth.height() as i64 {
-        return None;
-    }
-    let d = depth.get_pixel(x as u32, y as u32)[0];
-    (d != 0 && d != u16::MAX).then(|| d as f64 / 1000.0)
-}
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let a: Vec<String> = std::env::args().collect();
@@ -79,8 +69,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let gray = image::load_from_memory(&f.image_bytes)?.to_luma8();
         let feats = features::extract(&gray, &fe)?;
         let inv = f.pose.inverse();
+        let depth = load_depth(root, &f.name)?;
         for (k, xy) in feats.keypoints.iter().enumerate().take(per_frame) {
-            let Some(z) = depth_z(root, &f.name, *xy) else {
+            let Some(z) = depth_at(&depth, *xy) else {
                 continue;
             };
             let Some(ray) = f.camera.unproject(&Vector2::new(xy[0], xy[1])) else {

@@ -120,6 +120,12 @@ impl DescriptorCache {
         fe: &FrontEndConfig,
     ) -> Result<Option<&(Vec<f32>, Vec<f32>)>, TrainError> {
         if !self.frames.contains_key(&frame.frame_id) {
+            // Sized before describing: a frame past the budget costs nothing extra.
+            let rows = frame.keypoints.len() + frame.segments.len() * fe.samples_per_line;
+            let size = 4 * features::SIFT_DIM * rows;
+            if self.bytes + size > self.budget_bytes {
+                return Ok(None);
+            }
             let p = features::describe_points(image, &frame.keypoints, &fe.sift, &fe.descriptor)?;
             let l = features::describe_lines(
                 image,
@@ -128,11 +134,7 @@ impl DescriptorCache {
                 &fe.sift,
                 &fe.descriptor,
             )?;
-            let size = 4 * (p.len() + l.len());
-            if self.bytes + size > self.budget_bytes {
-                return Ok(None);
-            }
-            self.bytes += size;
+            self.bytes += 4 * (p.len() + l.len());
             self.frames.insert(frame.frame_id, (p, l));
         }
         Ok(self.frames.get(&frame.frame_id))

@@ -5,7 +5,6 @@
 //! (hloc format), `OUT/summary.md`, `OUT/summary.json` and `OUT/cdf.png`.
 
 use anyhow::Context;
-use pose::RansacOptions;
 use score::{Localiser, OracleLocaliser, ScoreConfig};
 use std::path::PathBuf;
 
@@ -48,24 +47,14 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let config = ScoreConfig {
-        min_point_reliability: args.min_point_reliability,
-        min_line_reliability: args.min_line_reliability,
-        ransac: RansacOptions {
-            point_threshold_px: args.point_threshold,
-            line_threshold_px: args.line_threshold,
-            seed: args.seed,
-            // Cauchy scale: half the point threshold for both kinds, as `pl2map pose`
-            // (6 px for the default 12 px).
-            point_loss_scale_px: 0.5 * args.point_threshold,
-            line_loss_scale_px: 0.5 * args.point_threshold,
-            max_iterations: args.max_iterations,
-            min_iterations: RansacOptions::default()
-                .min_iterations
-                .min(args.max_iterations),
-            ..RansacOptions::default()
-        },
-    };
+    let config = ScoreConfig::with_ransac(
+        args.min_point_reliability,
+        args.min_line_reliability,
+        args.point_threshold,
+        args.line_threshold,
+        args.seed,
+        Some(args.max_iterations),
+    );
     let mut localiser: Box<dyn Localiser> = match &args.checkpoint {
         Some(ckpt) => Box::new(score::NetworkLocaliser::load(ckpt)?),
         None => Box::new(OracleLocaliser),
