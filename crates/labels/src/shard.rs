@@ -16,6 +16,11 @@
 //! writes them. Image files go in byte for byte (their sha256 must still be the frames
 //! table's content hash). A rerun whose record (or unit manifest) matches is skipped;
 //! a killed run leaves only complete shard files, and a rerun rewrites the same bytes.
+//!
+//! When the inputs did change (frames added for a nightly warm start, new labels), each
+//! shard is rewritten only if its own frames did: every written shard gets a source
+//! digest file (`shards::SourceDigest`, over its frames' label messages and image hashes),
+//! and a shard whose digest is unchanged and whose bytes are intact is kept.
 
 use crate::import::remove_record;
 use crate::parquet::TableError;
@@ -23,8 +28,8 @@ use crate::tables::{LINES_FILE, LabelTables, POINTS_FILE, POSES_FILE};
 use datasets::frames::{Frame, FramesError, FramesTable, Split};
 use serde::{Deserialize, Serialize};
 use shards::{
-    FrameRecord, ImageFormat, Manifest, ShardConfig, ShardError, ShardJob, ShardPlan, plan_shards,
-    write_shards,
+    FrameRecord, ImageFormat, Manifest, ShardConfig, ShardError, ShardJob, ShardPlan, SourceDigest,
+    plan_shards, write_shards,
 };
 use stage::{RecordCheck, StageRecord};
 use std::collections::{BTreeMap, BTreeSet, HashMap};
@@ -126,6 +131,9 @@ pub struct ShardOutput {
     /// Whether `manifest.json` (all planned shards) exists after this run.
     pub complete: bool,
     pub skipped: bool,
+    /// Plan indexes of the shards kept as they were: their source digest (the frames,
+    /// labels and images they are made of) did not change since they were written.
+    pub reused: Vec<usize>,
 }
 
 /// The whole run's plan: training shards, then test shards.
@@ -240,26 +248,13 @@ fn ranges_by_frame(ids: impl Iterator<Item = u32>) -> HashMap<u32, Range<usize>>
 }
 
 impl Source<'_> {
-    fn load(&self, frame_id: u64) -> Result<FrameRecord, SourceError> {
-        let f = self
+    /// The frame's record without its image (bytes empty, format a placeholder) and the
+    /// image's content hash from the frames table: what its shard's digest is made of.
+    fn describe(&self, frame_id: u64) -> Result<(FrameRecord, &Frame), SourceError> {
+        let f = *self
             .frames
             .get(&frame_id)
             .ok_or(SourceError::Unknown(frame_id))?;
-        let bytes = std::fs::read(&f.path).map_err(|source| SourceError::Read {
-            path: f.path.clone(),
-            source,
-        })?;
-        let actual = stage::sha256_bytes(&bytes);
-        if actual != f.content_hash {
-            return Err(SourceError::Changed {
-                path: f.path.clone(),
-                expected: f.content_hash.clone(),
-                actual,
-            });
-        }
-        let image_format = ImageFormat::sniff(&bytes).ok_or_else(|| SourceError::Format {
-            path: f.path.clone(),
-        })?;
         let split = match f.split {
             Split::Train => shards::Split::Train,
             Split::Test => shards::Split::Test,
@@ -272,8 +267,8 @@ impl Source<'_> {
                 split,
                 f.camera.clone(),
                 f.pose,
-                bytes,
-                image_format,
+                Vec::new(),
+                ImageFormat::Png,
             )
         };
         if let Some((pose_row, prange, lrange)) = self.train.get(&frame_id) {
@@ -295,7 +290,53 @@ impl Source<'_> {
                 rec.line_valid.push(l.endpoints.is_some());
             }
         }
+        Ok((rec, f))
+    }
+
+    /// The frame's record with its image file, which must still be the one ingested.
+    fn load(&self, frame_id: u64) -> Result<FrameRecord, SourceError> {
+        let (mut rec, f) = self.describe(frame_id)?;
+        let bytes = std::fs::read(&f.path).map_err(|source| SourceError::Read {
+            path: f.path.clone(),
+            source,
+        })?;
+        let actual = stage::sha256_bytes(&bytes);
+        if actual != f.content_hash {
+            return Err(SourceError::Changed {
+                path: f.path.clone(),
+                expected: f.content_hash.clone(),
+                actual,
+            });
+        }
+        rec.image_format = ImageFormat::sniff(&bytes).ok_or_else(|| SourceError::Format {
+            path: f.path.clone(),
+        })?;
+        rec.image_bytes = bytes;
         Ok(rec)
+    }
+
+    /// The source digest of every planned shard (`shards::SourceDigest`).
+    fn digests(
+        &self,
+        plans: &[ShardPlan],
+        config: &ShardConfig,
+    ) -> Result<Vec<String>, ShardStageError> {
+        plans
+            .iter()
+            .map(|plan| {
+                let mut d = SourceDigest::new(config, &plan.file_name);
+                for &id in &plan.frame_ids {
+                    let (rec, f) = self.describe(id).map_err(|e| {
+                        ShardStageError::Shards(ShardError::Source {
+                            frame_id: id,
+                            source: Box::new(e),
+                        })
+                    })?;
+                    d.add_frame(&rec, &f.content_hash);
+                }
+                Ok(d.finish())
+            })
+            .collect()
     }
 }
 
@@ -374,6 +415,7 @@ pub fn run(
             manifest: Manifest { shards, ..whole },
             complete: true,
             skipped: true,
+            reused: Vec::new(),
         });
     }
     if !full
@@ -385,6 +427,7 @@ pub fn run(
             manifest: m,
             complete,
             skipped: true,
+            reused: Vec::new(),
         });
     }
 
@@ -416,17 +459,19 @@ pub fn run(
             })
             .collect(),
     };
+    let digests = source.digests(&plans, &config.shards)?;
     let job = ShardJob {
         out_dir: out,
         plans: &plans,
         config: &config.shards,
         config_hash: config_hash.clone(),
         inputs: inputs.clone(),
+        digests: Some(&digests),
     };
     let load = |id: u64| -> Result<FrameRecord, Box<dyn std::error::Error + Send + Sync>> {
         source.load(id).map_err(|e| Box::new(e) as _)
     };
-    let manifest = write_shards(&job, range.clone(), &load)?;
+    let shards::WriteOutcome { manifest, reused } = write_shards(&job, range.clone(), &load)?;
     let complete = if full {
         manifest.save(out.join(MANIFEST_FILE))?;
         save_record(out, &manifest, config_hash, inputs)?;
@@ -439,6 +484,7 @@ pub fn run(
         manifest,
         complete,
         skipped: false,
+        reused,
     })
 }
 

@@ -177,6 +177,88 @@ fn work_units_add_up_to_a_single_run() {
     );
 }
 
+/// New labels for one frame (as a nightly run brings new frames or labels): only the
+/// shard holding it is rewritten, a tampered shard is rewritten too, every other shard
+/// is kept, and the folder ends up byte for byte what a fresh run writes.
+#[test]
+fn only_shards_whose_frames_changed_are_rewritten() {
+    let scene = scene_with_labels();
+    let out = scene.out("shards");
+    let first = shard::run(
+        &config(2),
+        &scene.frames_path,
+        &scene.out("labels"),
+        &out,
+        None,
+    )
+    .unwrap();
+    assert!(first.reused.is_empty());
+    let m = &first.manifest;
+    assert_eq!(m.planned_shards, 6);
+    for s in &m.shards {
+        assert!(
+            out.join(format!("{}{}", s.file, shards::SOURCE_SUFFIX))
+                .is_file()
+        );
+    }
+
+    // Move the labelled points of the last training frame by 1 cm.
+    let mut tables = LabelTables::read(&scene.out("labels")).unwrap();
+    let changed = tables.poses.iter().map(|p| p.frame_id).max().unwrap();
+    for p in tables.points.iter_mut().filter(|p| p.frame_id == changed) {
+        if let Some(x) = &mut p.xyz {
+            x[0] += 0.01;
+        }
+    }
+    let labels2 = scene.out("labels2");
+    std::fs::create_dir_all(&labels2).unwrap();
+    tables.write(&labels2).unwrap();
+    let holder = m
+        .shards
+        .iter()
+        .find(|s| (s.first_frame..=s.last_frame).contains(&u64::from(changed)))
+        .unwrap()
+        .index;
+    // And damage another training shard (one byte appended).
+    let damaged = (holder + 1) % 4;
+    let damaged_file = out.join(&m.shards[damaged].file);
+    let mut bytes = std::fs::read(&damaged_file).unwrap();
+    bytes.push(0);
+    std::fs::write(&damaged_file, bytes).unwrap();
+
+    let second = shard::run(&config(2), &scene.frames_path, &labels2, &out, None).unwrap();
+    assert!(!second.skipped && second.complete);
+    let expected: Vec<usize> = (0..6).filter(|&i| i != holder && i != damaged).collect();
+    assert_eq!(second.reused, expected);
+    assert_ne!(
+        second.manifest.shards[holder].sha256,
+        m.shards[holder].sha256
+    );
+    assert_eq!(second.manifest.shards[damaged], m.shards[damaged]);
+
+    let fresh = scene.out("fresh");
+    let third = shard::run(&config(2), &scene.frames_path, &labels2, &fresh, None).unwrap();
+    assert!(third.reused.is_empty());
+    assert_eq!(third.manifest, second.manifest);
+    assert_eq!(folder_bytes(&out), folder_bytes(&fresh));
+    // Another layout gives other digests: nothing is kept.
+    let other = shard::run(
+        &ShardStageConfig {
+            shards: shards::ShardConfig {
+                zstd_level: 4,
+                ..config(2).shards
+            },
+            ..config(2)
+        },
+        &scene.frames_path,
+        &labels2,
+        &out,
+        None,
+    )
+    .unwrap();
+    assert!(other.reused.is_empty());
+}
+
 #[test]
 fn same_bytes_for_any_thread_count() {
     let scene = scene_with_labels();

@@ -163,6 +163,13 @@ pub fn run(p: &Pipeline, options: &RunOptions) -> Result<RunReport> {
                         m.shards.len(),
                         m.shards.iter().map(|s| s.frame_count).sum::<u64>()
                     );
+                    if !out.reused.is_empty() {
+                        note = format!(
+                            "{note}; {} kept (frames unchanged), {} written",
+                            out.reused.len(),
+                            m.shards.len() - out.reused.len()
+                        );
+                    }
                     if let Some(r) = &options.shards {
                         let state = if out.complete {
                             "the set is complete"

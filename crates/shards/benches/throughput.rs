@@ -62,13 +62,14 @@ fn main() {
             config: &config,
             config_hash: String::new(),
             inputs: BTreeMap::new(),
+            digests: None,
         };
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
             .build()
             .unwrap();
         let t = Instant::now();
-        let m = pool.install(|| write_shards(&job, 0..plans.len(), &load).unwrap());
+        let m = pool.install(|| write_shards(&job, 0..plans.len(), &load).unwrap().manifest);
         let dt = t.elapsed().as_secs_f64();
         let bytes: u64 = m.shards.iter().map(|s| s.bytes).sum();
         println!(

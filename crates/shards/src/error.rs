@@ -130,6 +130,8 @@ pub enum ShardError {
         #[source]
         source: serde_json::Error,
     },
+    #[error("{digests} source digest(s) for a plan of {shards} shard(s)")]
+    DigestCount { digests: usize, shards: usize },
     #[error("cannot merge manifests: {0}")]
     ManifestMerge(String),
 }

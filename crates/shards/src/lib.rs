@@ -18,9 +18,11 @@
 //! So any MCAP reader (Python's `mcap` + `mcap-protobuf-support`, Foxglove) decodes a
 //! shard without this crate. [`write_shard`] writes one file; [`plan_shards`] and
 //! [`write_shards`] split a run into shards and write a range of them in parallel,
-//! returning a [`Manifest`]; [`ShardReader`] streams frames back, seeks by frame id
+//! returning a [`Manifest`] (and, given [`SourceDigest`]s, keeping the shards whose
+//! frames did not change); [`ShardReader`] streams frames back, seeks by frame id
 //! and reads any subset of shards.
 
+mod digest;
 mod error;
 mod manifest;
 mod plan;
@@ -30,9 +32,12 @@ pub mod schema;
 mod visual;
 mod writer;
 
+pub use digest::{SOURCE_SUFFIX, SourceDigest};
 pub use error::ShardError;
 pub use manifest::{Manifest, ManifestShard};
-pub use plan::{FrameSource, ShardJob, ShardPlan, plan_shards, shard_file_name, write_shards};
+pub use plan::{
+    FrameSource, ShardJob, ShardPlan, WriteOutcome, plan_shards, shard_file_name, write_shards,
+};
 pub use reader::{ReaderOptions, ShardFile, ShardReader};
 pub use record::{FrameRecord, ImageFormat, LabelSource, Split};
 pub use visual::{CAMERA_FRAME, LINES_ENTITY_ID, WORLD_FRAME, foxglove_distortion};

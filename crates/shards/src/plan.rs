@@ -1,6 +1,7 @@
 //! Splitting a run's frames into shards, and writing a range of shards (one work
 //! unit, `--shards a..b`) in parallel.
 
+use crate::digest;
 use crate::error::ShardError;
 use crate::manifest::{Manifest, ManifestShard};
 use crate::record::FrameRecord;
@@ -78,28 +79,61 @@ pub struct ShardJob<'a> {
     pub config_hash: String,
     /// Input name -> content hash, recorded in the manifest.
     pub inputs: BTreeMap<String, String>,
+    /// Source digest of every planned shard (`digest.rs`), in plan order: a shard whose
+    /// digest file under `out_dir` names the same digest, and is intact, is kept as it
+    /// is; written shards get their digest file. None: write every shard, no digests.
+    pub digests: Option<&'a [String]>,
+}
+
+/// What [`write_shards`] did.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct WriteOutcome {
+    pub manifest: Manifest,
+    /// Plan indexes of the shards kept from an earlier run (same source digest).
+    pub reused: Vec<usize>,
 }
 
 /// Writes shards `range` of the plan (one work unit), in parallel on the current
 /// rayon pool, each shard streamed from `source` frame by frame. Each file depends
 /// only on its frames and the config, so the bytes are the same for any thread
-/// count; the manifest lists the shards by index.
+/// count; the manifest lists the shards by index. With digests, unchanged shards are
+/// kept (see [`ShardJob::digests`]).
 pub fn write_shards(
     job: &ShardJob<'_>,
     range: Range<usize>,
     source: &impl FrameSource,
-) -> Result<Manifest, ShardError> {
+) -> Result<WriteOutcome, ShardError> {
     let count = job.plans.len();
     let plans = job.plans.get(range.clone()).ok_or(ShardError::ShardRange {
         start: range.start,
         end: range.end,
         count,
     })?;
+    if let Some(d) = job.digests
+        && d.len() != count
+    {
+        return Err(ShardError::DigestCount {
+            digests: d.len(),
+            shards: count,
+        });
+    }
     let frames_in_range: u64 = plans.iter().map(|p| p.frame_ids.len() as u64).sum();
     let bar = stage::progress_bar(frames_in_range, "shard");
-    let infos: Vec<ShardInfo> = plans
+    let digest_of = |plan: &ShardPlan| {
+        job.digests
+            .and_then(|d| d.get(plan.index))
+            .map(String::as_str)
+    };
+    let written: Vec<(ManifestShard, bool)> = plans
         .par_iter()
-        .map(|plan| {
+        .map(|plan| -> Result<(ManifestShard, bool), ShardError> {
+            let digest = digest_of(plan);
+            if let Some(d) = digest
+                && let Some(kept) = digest::reusable(job.out_dir, plan, d)?
+            {
+                bar.inc(plan.frame_ids.len() as u64);
+                return Ok((kept, true));
+            }
             let frames = plan.frame_ids.iter().map(|&id| {
                 let f = source.load(id).map_err(|source| ShardError::Source {
                     frame_id: id,
@@ -114,32 +148,42 @@ pub fn write_shards(
                 bar.inc(1);
                 Ok(f)
             });
-            write_frames(&job.out_dir.join(&plan.file_name), frames, job.config)
+            let info = write_frames(&job.out_dir.join(&plan.file_name), frames, job.config)?;
+            let shard = manifest_shard(plan, info);
+            if let Some(d) = digest {
+                digest::save(job.out_dir, &shard, d)?;
+            }
+            Ok((shard, false))
         })
         .collect::<Result<_, _>>()?;
     bar.finish_and_clear();
-    let shards = plans
+    let reused = written
         .iter()
-        .zip(infos)
-        .map(|(plan, info)| ManifestShard {
-            index: plan.index,
-            file: plan.file_name.clone(),
-            first_frame: info.first_frame,
-            last_frame: info.last_frame,
-            frame_count: info.frame_count,
-            sha256: info.sha256,
-            bytes: info.bytes,
-        })
+        .filter(|(_, kept)| *kept)
+        .map(|(s, _)| s.index)
         .collect();
-    Ok(Manifest {
+    let manifest = Manifest {
         format_version: SHARD_FORMAT_VERSION,
         tool_version: env!("CARGO_PKG_VERSION").to_string(),
         config_hash: job.config_hash.clone(),
         inputs: job.inputs.clone(),
         planned_shards: count,
         planned_frames: job.plans.iter().map(|p| p.frame_ids.len() as u64).sum(),
-        shards,
-    })
+        shards: written.into_iter().map(|(s, _)| s).collect(),
+    };
+    Ok(WriteOutcome { manifest, reused })
+}
+
+fn manifest_shard(plan: &ShardPlan, info: ShardInfo) -> ManifestShard {
+    ManifestShard {
+        index: plan.index,
+        file: plan.file_name.clone(),
+        first_frame: info.first_frame,
+        last_frame: info.last_frame,
+        frame_count: info.frame_count,
+        sha256: info.sha256,
+        bytes: info.bytes,
+    }
 }
 
 #[cfg(test)]

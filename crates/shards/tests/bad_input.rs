@@ -252,6 +252,7 @@ fn writer_refuses_bad_frames_and_leaves_no_file() {
         config: &small_chunks(),
         config_hash: String::new(),
         inputs: BTreeMap::new(),
+        digests: None,
     };
     let failing = |id: u64| -> Result<FrameRecord, Box<dyn std::error::Error + Send + Sync>> {
         if id == 2 {

@@ -42,6 +42,7 @@ fn run(dir: &Path, threads: usize, units: &[(usize, usize)]) -> Manifest {
         config: &config,
         config_hash: stage::hash_config(&config).unwrap(),
         inputs: inputs(),
+        digests: None,
     };
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
@@ -50,7 +51,7 @@ fn run(dir: &Path, threads: usize, units: &[(usize, usize)]) -> Manifest {
     let manifests: Vec<Manifest> = pool.install(|| {
         units
             .iter()
-            .map(|&(a, b)| write_shards(&job, a..b, &load(&all)).unwrap())
+            .map(|&(a, b)| write_shards(&job, a..b, &load(&all)).unwrap().manifest)
             .collect()
     });
     Manifest::merge(&manifests).unwrap()

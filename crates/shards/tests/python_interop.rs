@@ -48,11 +48,12 @@ fn python_decodes_labels_from_the_embedded_schema() {
         config: &small_chunks(),
         config_hash: "interop".into(),
         inputs: BTreeMap::new(),
+        digests: None,
     };
     let load = |id: u64| -> Result<FrameRecord, Box<dyn std::error::Error + Send + Sync>> {
         Ok(all[(id - 100) as usize].clone())
     };
-    let manifest = write_shards(&job, 0..plans.len(), &load).unwrap();
+    let manifest = write_shards(&job, 0..plans.len(), &load).unwrap().manifest;
     let paths = manifest.shard_paths(dir.path());
 
     let script = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/decode_shard.py");

@@ -100,8 +100,11 @@ fn subset_of_shards_in_the_given_order() {
         config: &small_chunks(),
         config_hash: "test".into(),
         inputs: BTreeMap::new(),
+        digests: None,
     };
-    let manifest = write_shards(&job, 0..plans.len(), &source(&input)).unwrap();
+    let manifest = write_shards(&job, 0..plans.len(), &source(&input))
+        .unwrap()
+        .manifest;
     assert!(manifest.is_complete());
     let paths = manifest.shard_paths(dir.path());
     assert_eq!(paths.len(), 3);

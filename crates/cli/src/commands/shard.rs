@@ -67,10 +67,16 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         )
     })?;
     let m = &output.manifest;
+    let written = m.shards.len() - output.reused.len();
     let state = if output.skipped {
-        "up to date, skipped"
+        "up to date, skipped".to_string()
+    } else if output.reused.is_empty() {
+        "written".to_string()
     } else {
-        "written"
+        format!(
+            "{written} written, {} kept: their frames did not change",
+            output.reused.len()
+        )
     };
     println!(
         "{}: {} shard(s), {} frame(s) ({state}); plan: {} shards, {} frames{}",
@@ -86,14 +92,19 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
     );
     for s in &m.shards {
+        let kept = if output.reused.contains(&s.index) {
+            "  (kept)"
+        } else {
+            ""
+        };
         println!(
-            "  {}  frames {}..={}  {} frames  {} bytes  {}",
+            "  {}  frames {}..={}  {} frames  {} bytes  {}{kept}",
             s.file,
             s.first_frame,
             s.last_frame,
             s.frame_count,
             s.bytes,
-            &s.sha256[..16.min(s.sha256.len())]
+            &s.sha256[..16.min(s.sha256.len())],
         );
     }
     Ok(())
