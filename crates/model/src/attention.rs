@@ -30,22 +30,42 @@ impl<B: Backend> Projections<B> {
 /// Attention of `q` ([Nq, D]) over `k`, `v` ([Nk, D]), already projected; returns the
 /// per-head contexts concatenated back to [Nq, D] (before the merge projection).
 /// Scores are scaled by 1 / sqrt(D / heads). `Nq` and `Nk` must be positive.
+/// (The network calls the grouped form; this one image form is the tests' reference.)
+#[cfg(test)]
 pub(crate) fn attend<B: Pl2MapBackend>(
     q: Tensor<B, 2>,
     k: Tensor<B, 2>,
     v: Tensor<B, 2>,
     heads: usize,
 ) -> Tensor<B, 2> {
-    let [nq, d] = q.dims();
-    let [nk, _] = k.dims();
+    attend_grouped(q, k, v, heads, 1)
+}
+
+/// [`attend`] for `groups` images at once: the rows of `q` are `groups` consecutive blocks
+/// of Nq / groups (one per image), those of `k` and `v` blocks of Nk / groups, and block g
+/// of the queries attends to block g of the keys only. One batched matrix product
+/// instead of one small product per image.
+pub(crate) fn attend_grouped<B: Pl2MapBackend>(
+    q: Tensor<B, 2>,
+    k: Tensor<B, 2>,
+    v: Tensor<B, 2>,
+    heads: usize,
+    groups: usize,
+) -> Tensor<B, 2> {
+    let [rows_q, d] = q.dims();
+    let [rows_k, _] = k.dims();
+    let (nq, nk) = (rows_q / groups, rows_k / groups);
     let dk = d / heads;
     let scale = 1.0 / (dk as f64).sqrt();
     // Scaling the queries costs Nq*D multiplications instead of Nq*Nk on the scores.
-    let q = q.mul_scalar(scale).reshape([nq, heads, dk]).swap_dims(0, 1);
-    let k = k.reshape([nk, heads, dk]).permute([1, 2, 0]); // [h, dk, Nk]
-    let v = v.reshape([nk, heads, dk]).swap_dims(0, 1); // [h, Nk, dk]
-    let weights = softmax_last(q.matmul(k)); // [h, Nq, Nk]
-    weights.matmul(v).swap_dims(0, 1).reshape([nq, d])
+    let q = q
+        .mul_scalar(scale)
+        .reshape([groups, nq, heads, dk])
+        .swap_dims(1, 2); // [g, h, Nq, dk]
+    let k = k.reshape([groups, nk, heads, dk]).permute([0, 2, 3, 1]); // [g, h, dk, Nk]
+    let v = v.reshape([groups, nk, heads, dk]).swap_dims(1, 2); // [g, h, Nk, dk]
+    let weights = softmax_last(q.matmul(k)); // [g, h, Nq, Nk]
+    weights.matmul(v).swap_dims(1, 2).reshape([rows_q, d])
 }
 
 #[cfg(test)]
@@ -104,5 +124,27 @@ mod tests {
             heads,
         );
         assert_close(&values(&got), &naive(&q, &k, &v, nq, nk, d, heads), 1e-5);
+    }
+
+    /// Grouped attention is each group's own attention, stacked.
+    #[test]
+    fn groups_attend_only_within_themselves() {
+        let (g, nq, nk, d, heads) = (3, 4, 2, 8, 2);
+        let q = pseudo(g * nq * d, 5);
+        let k = pseudo(g * nk * d, 6);
+        let v = pseudo(g * nk * d, 7);
+        let got = attend_grouped(
+            tensor::<B, 2>(q.clone(), [g * nq, d]),
+            tensor::<B, 2>(k.clone(), [g * nk, d]),
+            tensor::<B, 2>(v.clone(), [g * nk, d]),
+            heads,
+            g,
+        );
+        let mut want = Vec::new();
+        for i in 0..g {
+            let (qs, ks) = (i * nq * d..(i + 1) * nq * d, i * nk * d..(i + 1) * nk * d);
+            want.extend(naive(&q[qs], &k[ks.clone()], &v[ks], nq, nk, d, heads));
+        }
+        assert_close(&values(&got), &want, 1e-5);
     }
 }

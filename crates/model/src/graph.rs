@@ -4,7 +4,7 @@
 //! rows of both streams in one matrix product ([N + M, D]); only the attention itself is
 //! per stream. Both streams are updated from the previous layer's values.
 
-use crate::attention::{Projections, attend};
+use crate::attention::{Projections, attend_grouped};
 use crate::backend::Pl2MapBackend;
 use crate::config::LayerKind;
 use crate::init::Initializer;
@@ -30,15 +30,20 @@ impl<B: Pl2MapBackend> PropagationLayer<B> {
         }
     }
 
-    /// `x`: [n + m, D], the n point rows followed by the m line rows (n + m > 0).
+    /// `x`: [n + m, D], the n point rows followed by the m line rows (n + m > 0), of
+    /// `groups` images with n / groups points and m / groups lines each (in image order
+    /// within each stream); attention stays within an image.
     fn forward(
         &self,
         x: Tensor<B, 2>,
-        n: usize,
-        m: usize,
+        (n, m): (usize, usize),
         kind: LayerKind,
         heads: usize,
+        groups: usize,
     ) -> Tensor<B, 2> {
+        let attend = |q: Tensor<B, 2>, k: Tensor<B, 2>, v: Tensor<B, 2>| {
+            attend_grouped(q, k, v, heads, groups)
+        };
         let [rows, d] = x.dims();
         let context = if n > 0 && m > 0 {
             let q = self.attention.query.forward(x.clone());
@@ -49,8 +54,8 @@ impl<B: Pl2MapBackend> PropagationLayer<B> {
             let (kp, kl) = split(k);
             let (vp, vl) = split(v);
             let (cp, cl) = match kind {
-                LayerKind::SelfAttention => (attend(qp, kp, vp, heads), attend(ql, kl, vl, heads)),
-                LayerKind::Cross => (attend(qp, kl, vl, heads), attend(ql, kp, vp, heads)),
+                LayerKind::SelfAttention => (attend(qp, kp, vp), attend(ql, kl, vl)),
+                LayerKind::Cross => (attend(qp, kl, vl), attend(ql, kp, vp)),
             };
             Tensor::cat(vec![cp, cl], 0)
         } else {
@@ -59,7 +64,7 @@ impl<B: Pl2MapBackend> PropagationLayer<B> {
                     let q = self.attention.query.forward(x.clone());
                     let k = self.attention.key.forward(x.clone());
                     let v = self.attention.value.forward(x.clone());
-                    attend(q, k, v, heads)
+                    attend(q, k, v)
                 }
                 // The other stream is empty: attention over an empty edge set is an empty
                 // sum, so the context is zero and the message is the merge bias.
@@ -101,9 +106,22 @@ impl<B: Pl2MapBackend> GraphNetwork<B> {
     }
 
     /// `x`: [n + m, D], points first; returns the updated rows in the same order.
-    pub fn forward(&self, mut x: Tensor<B, 2>, n: usize, m: usize) -> Tensor<B, 2> {
+    pub fn forward(&self, x: Tensor<B, 2>, n: usize, m: usize) -> Tensor<B, 2> {
+        self.forward_grouped(x, n, m, 1)
+    }
+
+    /// [`GraphNetwork::forward`] on `groups` images of equal size at once: `x` holds the
+    /// n points of all images (image by image), then their m lines; n and m are
+    /// multiples of `groups`.
+    pub fn forward_grouped(
+        &self,
+        mut x: Tensor<B, 2>,
+        n: usize,
+        m: usize,
+        groups: usize,
+    ) -> Tensor<B, 2> {
         for (layer, kind) in self.layers.iter().zip(&self.kinds) {
-            x = layer.forward(x, n, m, *kind, self.heads);
+            x = layer.forward(x, (n, m), *kind, self.heads, groups);
         }
         x
     }

@@ -238,6 +238,17 @@ impl<B: Pl2MapBackend> Pl2Map<B> {
     /// An image without lines (or without points) runs the other stream alone; cross
     /// layers then pass it the message of an empty edge set.
     pub fn forward(&self, input: NetworkInput<B>, dropout: &mut Dropout) -> Prediction<B> {
+        self.forward_grouped(input, 1, dropout)
+    }
+
+    /// The forward pass over `groups` equal-sized images stacked row-wise (see
+    /// [`Pl2Map::forward_batch`]); the outputs stay stacked.
+    fn forward_grouped(
+        &self,
+        input: NetworkInput<B>,
+        groups: usize,
+        dropout: &mut Dropout,
+    ) -> Prediction<B> {
         let n = input.num_points();
         let m = input.num_lines();
         let lines = input.lines.map(|l| self.line_encoder.forward(l, dropout));
@@ -255,7 +266,7 @@ impl<B: Pl2MapBackend> Pl2Map<B> {
                 reliability_beta: beta,
             };
         };
-        let x = self.graph.forward(x, n, m);
+        let x = self.graph.forward_grouped(x, n, m, groups);
         let points = (n > 0).then(|| self.point_head.forward(x.clone().narrow(0, 0, n)));
         let lines = (m > 0).then(|| self.line_head.forward(x.narrow(0, n, m)));
         Prediction {
@@ -263,6 +274,50 @@ impl<B: Pl2MapBackend> Pl2Map<B> {
             lines,
             reliability_beta: beta,
         }
+    }
+
+    /// The network on several images at once: the same outputs as [`Pl2Map::forward`] on
+    /// each (up to float rounding), in input order. Images of equal size (the trainer's
+    /// limits make nearly every training image so) share every matrix product: the
+    /// streams of all images are stacked row-wise, and attention runs per image as one
+    /// batched product. Otherwise each image runs on its own. Dropout masks come from
+    /// `dropout`'s one stream, drawn for the stacked tensors.
+    pub fn forward_batch(
+        &self,
+        inputs: Vec<NetworkInput<B>>,
+        dropout: &mut Dropout,
+    ) -> Vec<Prediction<B>> {
+        let g = inputs.len();
+        let sizes: Vec<(usize, usize)> = inputs
+            .iter()
+            .map(|i| (i.num_points(), i.num_lines()))
+            .collect();
+        let uniform = sizes.windows(2).all(|w| w[0] == w[1]);
+        if g <= 1 || !uniform {
+            return inputs
+                .into_iter()
+                .map(|i| self.forward(i, dropout))
+                .collect();
+        }
+        let (n, m) = sizes[0];
+        let mut points = Vec::with_capacity(g);
+        let mut lines = Vec::with_capacity(g);
+        for i in inputs {
+            points.extend(i.points);
+            lines.extend(i.lines);
+        }
+        let stacked = NetworkInput {
+            points: (n > 0).then(|| Tensor::cat(points, 0)),
+            lines: (m > 0).then(|| Tensor::cat(lines, 0)),
+        };
+        let out = self.forward_grouped(stacked, g, dropout);
+        (0..g)
+            .map(|k| Prediction {
+                points: out.points.clone().map(|p| p.narrow(0, k * n, n)),
+                lines: out.lines.clone().map(|l| l.narrow(0, k * m, m)),
+                reliability_beta: out.reliability_beta,
+            })
+            .collect()
     }
 
     /// Evaluation-mode forward pass on host descriptors, results on the host.
@@ -286,7 +341,7 @@ impl<B: Pl2MapBackend> Pl2Map<B> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::testutil::{B, tiny_config, tiny_sample, values};
+    use crate::testutil::{B, assert_close, pseudo, tiny_config, tiny_sample, values};
 
     #[test]
     fn reference_parameter_count_at_d256() {
@@ -361,6 +416,62 @@ mod tests {
             }
         }
         assert!((a.lines[0].start[0] - b.lines[2].start[0]).abs() < 1e-5);
+    }
+
+    /// A batch gives each image what it gets on its own: stacked (equal sizes, also
+    /// with one stream empty) and one by one (unequal sizes).
+    #[test]
+    fn a_batch_is_each_image_on_its_own() {
+        let cfg = tiny_config();
+        let net = cfg.init::<B>(3, &Default::default()).unwrap();
+        let d = cfg.descriptor_dim;
+        let t = cfg.line_tokens;
+        let device = Default::default();
+        for sizes in [
+            vec![(5, 3), (5, 3), (5, 3)],
+            vec![(4, 0), (4, 0)],
+            vec![(0, 2), (0, 2)],
+            vec![(5, 3), (2, 1), (5, 3)],
+        ] {
+            let inputs: Vec<(Vec<f32>, Vec<f32>)> = sizes
+                .iter()
+                .enumerate()
+                .map(|(k, &(n, m))| {
+                    (
+                        pseudo(n * d, 10 + k as u32),
+                        pseudo(m * t * d, 20 + k as u32),
+                    )
+                })
+                .collect();
+            let tensors = |(p, l): &(Vec<f32>, Vec<f32>)| {
+                NetworkInput::<B>::from_host(&cfg, p, l, &device).unwrap()
+            };
+            let batch =
+                net.forward_batch(inputs.iter().map(tensors).collect(), &mut Dropout::off());
+            assert_eq!(batch.len(), sizes.len());
+            for (input, got) in inputs.iter().zip(&batch) {
+                let want = net.forward(tensors(input), &mut Dropout::off());
+                let (g, w) = (got.to_host(), want.to_host());
+                assert_eq!(
+                    (g.points.len(), g.lines.len()),
+                    (w.points.len(), w.lines.len())
+                );
+                for (a, b) in g.points.iter().zip(&w.points) {
+                    assert_close(
+                        &[a.xyz[0], a.xyz[1], a.xyz[2], a.reliability],
+                        &[b.xyz[0], b.xyz[1], b.xyz[2], b.reliability],
+                        1e-5,
+                    );
+                }
+                for (a, b) in g.lines.iter().zip(&w.lines) {
+                    assert_close(
+                        &[a.start[0], a.start[2], a.end[1], a.reliability],
+                        &[b.start[0], b.start[2], b.end[1], b.reliability],
+                        1e-5,
+                    );
+                }
+            }
+        }
     }
 
     #[test]

@@ -172,59 +172,103 @@ pub fn draw_params<R: Rng>(cfg: &AugmentConfig, camera: &Camera, rng: &mut R) ->
     }
 }
 
-/// Applies `params` to a sample.
-pub fn apply(
-    sample: &Sample,
-    params: &AugmentParams,
-) -> Result<Augmented, geometry::GeometryError> {
-    let camera = sample.camera.scaled(params.scale)?;
-    let (cx, cy) = sample.camera.principal_point();
-    let sim = Similarity {
+/// Where an augmentation moves a sample's camera, pose, keypoints and segments.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Geometry {
+    pub camera: Camera,
+    pub pose: Pose,
+    /// Transformed keypoints inside the new image, and their indexes in the input.
+    pub keypoints: Vec<[f64; 2]>,
+    pub keypoint_index: Vec<usize>,
+    /// Transformed segments clipped to the new image (at least 1 px long), and their
+    /// indexes in the input.
+    pub segments: Vec<[f64; 4]>,
+    pub segment_index: Vec<usize>,
+}
+
+fn similarity(camera: &Camera, params: &AugmentParams) -> Similarity {
+    let (cx, cy) = camera.principal_point();
+    Similarity {
         scale: params.scale,
         theta: params.rotation_rad,
         centre: Vector2::new(cx, cy),
-    };
-    let rz = UnitQuaternion::from_axis_angle(&Vector3::z_axis(), params.rotation_rad);
-    let pose = Pose::new(rz * sample.pose.rotation, rz * sample.pose.translation);
-    let (w, h) = (camera.width as f64, camera.height as f64);
+    }
+}
 
-    let mut keypoints = Vec::with_capacity(sample.keypoints.len());
-    let mut keypoint_index = Vec::with_capacity(sample.keypoints.len());
-    for (i, k) in sample.keypoints.iter().enumerate() {
+/// The geometric part of [`apply`], without touching the image (an unaugmented sample
+/// whose descriptors are cached needs no decoded image).
+pub fn transform(
+    camera: &Camera,
+    pose: &Pose,
+    keypoints: &[[f64; 2]],
+    segments: &[[f64; 4]],
+    params: &AugmentParams,
+) -> Result<Geometry, geometry::GeometryError> {
+    let new_camera = camera.scaled(params.scale)?;
+    let sim = similarity(camera, params);
+    let rz = UnitQuaternion::from_axis_angle(&Vector3::z_axis(), params.rotation_rad);
+    let new_pose = Pose::new(rz * pose.rotation, rz * pose.translation);
+    let (w, h) = (new_camera.width as f64, new_camera.height as f64);
+
+    let mut out_keypoints = Vec::with_capacity(keypoints.len());
+    let mut keypoint_index = Vec::with_capacity(keypoints.len());
+    for (i, k) in keypoints.iter().enumerate() {
         let q = sim.apply(&Vector2::new(k[0], k[1]));
         if q.x >= 0.0 && q.y >= 0.0 && q.x < w && q.y < h {
-            keypoints.push([q.x, q.y]);
+            out_keypoints.push([q.x, q.y]);
             keypoint_index.push(i);
         }
     }
-    let mut segments = Vec::with_capacity(sample.segments.len());
-    let mut segment_index = Vec::with_capacity(sample.segments.len());
-    for (j, s) in sample.segments.iter().enumerate() {
+    let mut out_segments = Vec::with_capacity(segments.len());
+    let mut segment_index = Vec::with_capacity(segments.len());
+    for (j, s) in segments.iter().enumerate() {
         let a = sim.apply(&Vector2::new(s[0], s[1]));
         let b = sim.apply(&Vector2::new(s[2], s[3]));
         if let Some(c) = clip_segment_to_image(&Segment2::new(a, b), w, h) {
             // A segment clipped to (almost) a point carries no line.
             if c.length() >= 1.0 {
-                segments.push(c.to_array());
+                out_segments.push(c.to_array());
                 segment_index.push(j);
             }
         }
     }
+    Ok(Geometry {
+        camera: new_camera,
+        pose: new_pose,
+        keypoints: out_keypoints,
+        keypoint_index,
+        segments: out_segments,
+        segment_index,
+    })
+}
+
+/// Applies `params` to a sample.
+pub fn apply(
+    sample: &Sample,
+    params: &AugmentParams,
+) -> Result<Augmented, geometry::GeometryError> {
+    let g = transform(
+        &sample.camera,
+        &sample.pose,
+        &sample.keypoints,
+        &sample.segments,
+        params,
+    )?;
     let image = warp(
         &sample.image,
-        &sim,
-        camera.width as u32,
-        camera.height as u32,
+        &similarity(&sample.camera, params),
+        g.camera.width as u32,
+        g.camera.height as u32,
         params,
     );
     Ok(Augmented {
         image,
-        camera,
-        pose,
-        keypoints,
-        keypoint_index,
-        segments,
-        segment_index,
+        camera: g.camera,
+        pose: g.pose,
+        keypoints: g.keypoints,
+        keypoint_index: g.keypoint_index,
+        segments: g.segments,
+        segment_index: g.segment_index,
         params: *params,
     })
 }

@@ -1,8 +1,9 @@
 //! A shard frame (+ augmentation) -> the network's training sample ([`model::Sample`]).
 //!
-//! Steps: decode the image to grey (the front-end's luma), draw and apply the
-//! augmentation (keypoints and segments move with the image, pose and intrinsics follow,
-//! see `augment.rs`), keep at most `max_keypoints` / `max_lines` of what stayed in the
+//! Steps: draw the augmentation, decode the image to grey (the front-end's luma) and
+//! apply it (keypoints and segments move with the image, pose and intrinsics follow,
+//! see `augment.rs`; an unaugmented frame whose descriptors are cached skips the
+//! image), keep at most `max_keypoints` / `max_lines` of what stayed in the
 //! image (seeded draw, original order kept), and describe the kept positions ON THE
 //! AUGMENTED IMAGE with the front-end's fixed-scale SIFT (points) and oriented samples
 //! along each segment (lines): exactly what the predictor computes at query time.
@@ -112,14 +113,23 @@ impl DescriptorCache {
         self.frames.is_empty()
     }
 
-    /// (point rows, line rows) of `frame`'s keypoints and segments, described once.
+    /// Whether the frame's descriptors are cached.
+    pub fn contains(&self, frame_id: u64) -> bool {
+        self.frames.contains_key(&frame_id)
+    }
+
+    /// (point rows, line rows) of `frame`'s keypoints and segments, described once
+    /// (from `image`, which only an uncached frame needs).
     fn get(
         &mut self,
         frame: &FrameRecord,
-        image: &GrayImage,
+        image: Option<&GrayImage>,
         fe: &FrontEndConfig,
     ) -> Result<Option<&(Vec<f32>, Vec<f32>)>, TrainError> {
         if !self.frames.contains_key(&frame.frame_id) {
+            let Some(image) = image else {
+                return Ok(None);
+            };
             // Sized before describing: a frame past the budget costs nothing extra.
             let rows = frame.keypoints.len() + frame.segments.len() * fe.samples_per_line;
             let size = 4 * features::SIFT_DIM * rows;
@@ -162,41 +172,28 @@ pub fn prepare_with_cache<R: Rng>(
     rng: &mut R,
     cache: Option<&mut DescriptorCache>,
 ) -> Result<Prepared, TrainError> {
-    let gray = decode_gray(frame)?;
-    if (gray.width() as u64, gray.height() as u64) != (frame.camera.width, frame.camera.height) {
-        return Err(frame_err(
-            frame,
-            format!(
-                "image is {}x{} but the camera says {}x{}",
-                gray.width(),
-                gray.height(),
-                frame.camera.width,
-                frame.camera.height
-            ),
-        ));
-    }
     let params = match augment {
         Some(cfg) => augment::draw_params(cfg, &frame.camera, rng),
         None => AugmentParams::IDENTITY,
     };
-    let input = augment::Sample {
-        image: gray,
-        camera: frame.camera.clone(),
-        pose: frame.pose,
-        keypoints: frame.keypoints.clone(),
-        segments: frame.segments.clone(),
-    };
-    let aug = augment::apply(&input, &params)
-        .map_err(|e| frame_err(frame, format!("augmentation: {e}")))?;
+    let geo = augment::transform(
+        &frame.camera,
+        &frame.pose,
+        &frame.keypoints,
+        &frame.segments,
+        &params,
+    )
+    .map_err(|e| frame_err(frame, format!("augmentation: {e}")))?;
 
-    let kp_pick = subsample(aug.keypoints.len(), limits.max_keypoints, rng);
-    let seg_pick = subsample(aug.segments.len(), limits.max_lines, rng);
-    let keypoints: Vec<[f64; 2]> = kp_pick.iter().map(|&k| aug.keypoints[k]).collect();
-    let keypoint_index: Vec<usize> = kp_pick.iter().map(|&k| aug.keypoint_index[k]).collect();
-    let segments: Vec<[f64; 4]> = seg_pick.iter().map(|&k| aug.segments[k]).collect();
-    let segment_index: Vec<usize> = seg_pick.iter().map(|&k| aug.segment_index[k]).collect();
+    let kp_pick = subsample(geo.keypoints.len(), limits.max_keypoints, rng);
+    let seg_pick = subsample(geo.segments.len(), limits.max_lines, rng);
+    let keypoints: Vec<[f64; 2]> = kp_pick.iter().map(|&k| geo.keypoints[k]).collect();
+    let keypoint_index: Vec<usize> = kp_pick.iter().map(|&k| geo.keypoint_index[k]).collect();
+    let segments: Vec<[f64; 4]> = seg_pick.iter().map(|&k| geo.segments[k]).collect();
+    let segment_index: Vec<usize> = seg_pick.iter().map(|&k| geo.segment_index[k]).collect();
 
-    // The identity leaves every position exactly as it was (checked, not assumed).
+    // The identity leaves every position exactly as it was (checked, not assumed: a
+    // segment reaching out of the image is clipped).
     let unchanged = params == AugmentParams::IDENTITY
         && keypoint_index
             .iter()
@@ -206,12 +203,43 @@ pub fn prepare_with_cache<R: Rng>(
             .iter()
             .zip(&segments)
             .all(|(&j, s)| frame.segments[j] == *s);
+    // Such a sample of a cached frame needs no image at all: decoding it was most of its
+    // cost (the frame was checked when it was cached).
+    let from_cache = unchanged && cache.as_ref().is_some_and(|c| c.contains(frame.frame_id));
+    let image = if from_cache {
+        None
+    } else {
+        let gray = decode_gray(frame)?;
+        if (gray.width() as u64, gray.height() as u64) != (frame.camera.width, frame.camera.height)
+        {
+            return Err(frame_err(
+                frame,
+                format!(
+                    "image is {}x{} but the camera says {}x{}",
+                    gray.width(),
+                    gray.height(),
+                    frame.camera.width,
+                    frame.camera.height
+                ),
+            ));
+        }
+        let input = augment::Sample {
+            image: gray,
+            camera: frame.camera.clone(),
+            pose: frame.pose,
+            keypoints: Vec::new(),
+            segments: Vec::new(),
+        };
+        let warped = augment::apply(&input, &params)
+            .map_err(|e| frame_err(frame, format!("augmentation: {e}")))?;
+        Some(warped.image)
+    };
     let cached = match cache {
-        Some(c) if unchanged => c.get(frame, &aug.image, front_end)?,
+        Some(c) if unchanged => c.get(frame, image.as_ref(), front_end)?,
         _ => None,
     };
-    let (point_descriptors, line_descriptors) = match cached {
-        Some((p, l)) => {
+    let (point_descriptors, line_descriptors) = match (cached, &image) {
+        (Some((p, l)), _) => {
             let d = features::SIFT_DIM;
             let td = front_end.samples_per_line * d;
             (
@@ -225,21 +253,23 @@ pub fn prepare_with_cache<R: Rng>(
                     .collect(),
             )
         }
-        None => (
-            features::describe_points(
-                &aug.image,
-                &keypoints,
-                &front_end.sift,
-                &front_end.descriptor,
-            )?,
+        (None, Some(image)) => (
+            features::describe_points(image, &keypoints, &front_end.sift, &front_end.descriptor)?,
             features::describe_lines(
-                &aug.image,
+                image,
                 &segments,
                 front_end.samples_per_line,
                 &front_end.sift,
                 &front_end.descriptor,
             )?,
         ),
+        // `from_cache` held, so the cache has the frame and its positions are unchanged.
+        (None, None) => {
+            return Err(frame_err(
+                frame,
+                "its cached descriptors disappeared (a bug)".into(),
+            ));
+        }
     };
 
     let f32x = |v: &[f64]| -> Vec<f32> { v.iter().map(|&x| x as f32).collect() };
@@ -270,8 +300,8 @@ pub fn prepare_with_cache<R: Rng>(
             }
         })
         .collect();
-    let r = aug.pose.rotation_matrix();
-    let t = aug.pose.translation;
+    let r = geo.pose.rotation_matrix();
+    let t = geo.pose.translation;
     let sample = model::Sample {
         point_descriptors,
         line_descriptors,
@@ -293,7 +323,7 @@ pub fn prepare_with_cache<R: Rng>(
             [r[(2, 0)], r[(2, 1)], r[(2, 2)]],
         ],
         translation: [t.x, t.y, t.z],
-        camera: pinhole(&aug.camera),
+        camera: pinhole(&geo.camera),
     };
     Ok(Prepared {
         frame_id: frame.frame_id,
@@ -301,8 +331,8 @@ pub fn prepare_with_cache<R: Rng>(
         params,
         keypoint_index,
         segment_index,
-        camera: aug.camera,
-        pose: aug.pose,
+        camera: geo.camera,
+        pose: geo.pose,
     })
 }
 
@@ -521,6 +551,15 @@ mod tests {
             assert_eq!(plain.sample, cached.sample, "seed {seed}");
         }
         assert_eq!(cache.len(), 1);
+        // A cached frame's image is not decoded again (the cost it saves).
+        let mut broken = f.clone();
+        broken.image_bytes.truncate(40);
+        let mut r1 = seeds::rng(9, Purpose::Sample, 0);
+        let mut r2 = seeds::rng(9, Purpose::Sample, 0);
+        let plain = prepare(&f, &fe, None, &limits, &mut r1).unwrap();
+        let cached =
+            prepare_with_cache(&broken, &fe, None, &limits, &mut r2, Some(&mut cache)).unwrap();
+        assert_eq!(plain.sample, cached.sample);
         let aug = AugmentConfig {
             probability: 1.0,
             ..AugmentConfig::default()
