@@ -59,6 +59,24 @@ pub fn decode_gray(frame: &FrameRecord) -> Result<GrayImage, TrainError> {
         .map_err(|e| frame_err(frame, format!("decoding the image: {e}")))
 }
 
+/// [`decode_gray`], checking the image against the frame's camera.
+fn decode_checked(frame: &FrameRecord) -> Result<GrayImage, TrainError> {
+    let gray = decode_gray(frame)?;
+    if (gray.width() as u64, gray.height() as u64) != (frame.camera.width, frame.camera.height) {
+        return Err(frame_err(
+            frame,
+            format!(
+                "image is {}x{} but the camera says {}x{}",
+                gray.width(),
+                gray.height(),
+                frame.camera.width,
+                frame.camera.height
+            ),
+        ));
+    }
+    Ok(gray)
+}
+
 fn frame_err(frame: &FrameRecord, reason: String) -> TrainError {
     TrainError::Frame {
         frame_id: frame.frame_id,
@@ -85,14 +103,18 @@ fn subsample<R: Rng>(len: usize, max: usize, rng: &mut R) -> Vec<usize> {
     picked
 }
 
+/// A frame's descriptor rows: (points, N x D; line samples, M x T x D).
+type FrameDescriptors = (Vec<f32>, Vec<f32>);
+
 /// Descriptors of whole frames as they are (no augmentation), by frame id, so that an
 /// unaugmented sample needs no front-end call. Every keypoint of a kind has the same
 /// fixed size, so a subset's descriptors equal the rows of the whole set's (the
 /// test `cached_descriptors_are_the_described_ones` holds that). Filled up to a byte
-/// budget; frames past it are described each time (same values, more time).
+/// budget, up front by [`DescriptorCache::prefill`] or as frames come; frames past it
+/// are described each time (same values, more time).
 #[derive(Debug, Default)]
 pub struct DescriptorCache {
-    frames: std::collections::HashMap<u64, (Vec<f32>, Vec<f32>)>,
+    frames: std::collections::HashMap<u64, FrameDescriptors>,
     bytes: usize,
     budget_bytes: usize,
 }
@@ -113,6 +135,62 @@ impl DescriptorCache {
         self.frames.is_empty()
     }
 
+    /// Describes the frames of `paths` (in file order, on the rayon pool, a few frames at a
+    /// time) until the budget is full, so the first epoch does not wait for them one by
+    /// one on the reader thread. What is cached never changes a sample (cached rows are
+    /// the described ones), so this changes the speed of a run, not its results.
+    pub fn prefill(
+        &mut self,
+        paths: &[std::path::PathBuf],
+        fe: &FrontEndConfig,
+        bar: &indicatif::ProgressBar,
+    ) -> Result<(), TrainError> {
+        let chunk = 2 * rayon::current_num_threads().max(1);
+        let mut planned = self.bytes;
+        let mut batch = Vec::with_capacity(chunk);
+        for frame in shards::ShardReader::open(paths)? {
+            let frame = frame?;
+            if self.contains(frame.frame_id) {
+                continue;
+            }
+            // Sized before describing, as `get` does.
+            let size = 4 * features::SIFT_DIM * rows(&frame, fe);
+            if planned + size > self.budget_bytes {
+                break;
+            }
+            planned += size;
+            batch.push(frame);
+            if batch.len() == chunk {
+                self.describe_batch(std::mem::take(&mut batch), fe, bar)?;
+            }
+        }
+        self.describe_batch(batch, fe, bar)
+    }
+
+    fn describe_batch(
+        &mut self,
+        frames: Vec<FrameRecord>,
+        fe: &FrontEndConfig,
+        bar: &indicatif::ProgressBar,
+    ) -> Result<(), TrainError> {
+        use rayon::prelude::*;
+        let described: Vec<Result<FrameDescriptors, TrainError>> =
+            frames.par_iter().map(|f| describe_frame(f, fe)).collect();
+        for (f, d) in frames.iter().zip(described) {
+            let (p, l) = d?;
+            self.insert(f.frame_id, p, l);
+            bar.inc(1);
+        }
+        Ok(())
+    }
+
+    fn insert(&mut self, frame_id: u64, p: Vec<f32>, l: Vec<f32>) {
+        if !self.frames.contains_key(&frame_id) {
+            self.bytes += 4 * (p.len() + l.len());
+            self.frames.insert(frame_id, (p, l));
+        }
+    }
+
     /// Whether the frame's descriptors are cached.
     pub fn contains(&self, frame_id: u64) -> bool {
         self.frames.contains_key(&frame_id)
@@ -125,30 +203,51 @@ impl DescriptorCache {
         frame: &FrameRecord,
         image: Option<&GrayImage>,
         fe: &FrontEndConfig,
-    ) -> Result<Option<&(Vec<f32>, Vec<f32>)>, TrainError> {
+    ) -> Result<Option<&FrameDescriptors>, TrainError> {
         if !self.frames.contains_key(&frame.frame_id) {
             let Some(image) = image else {
                 return Ok(None);
             };
             // Sized before describing: a frame past the budget costs nothing extra.
-            let rows = frame.keypoints.len() + frame.segments.len() * fe.samples_per_line;
-            let size = 4 * features::SIFT_DIM * rows;
+            let size = 4 * features::SIFT_DIM * rows(frame, fe);
             if self.bytes + size > self.budget_bytes {
                 return Ok(None);
             }
-            let p = features::describe_points(image, &frame.keypoints, &fe.sift, &fe.descriptor)?;
-            let l = features::describe_lines(
-                image,
-                &frame.segments,
-                fe.samples_per_line,
-                &fe.sift,
-                &fe.descriptor,
-            )?;
-            self.bytes += 4 * (p.len() + l.len());
-            self.frames.insert(frame.frame_id, (p, l));
+            let (p, l) = describe_on(image, frame, fe)?;
+            self.insert(frame.frame_id, p, l);
         }
         Ok(self.frames.get(&frame.frame_id))
     }
+}
+
+/// Descriptor rows of a whole frame (keypoints, and T samples per segment).
+fn rows(frame: &FrameRecord, fe: &FrontEndConfig) -> usize {
+    frame.keypoints.len() + frame.segments.len() * fe.samples_per_line
+}
+
+/// The descriptors of all of a frame's keypoints and segments on its own image.
+fn describe_frame(
+    frame: &FrameRecord,
+    fe: &FrontEndConfig,
+) -> Result<FrameDescriptors, TrainError> {
+    let image = decode_checked(frame)?;
+    describe_on(&image, frame, fe)
+}
+
+fn describe_on(
+    image: &GrayImage,
+    frame: &FrameRecord,
+    fe: &FrontEndConfig,
+) -> Result<FrameDescriptors, TrainError> {
+    let p = features::describe_points(image, &frame.keypoints, &fe.sift, &fe.descriptor)?;
+    let l = features::describe_lines(
+        image,
+        &frame.segments,
+        fe.samples_per_line,
+        &fe.sift,
+        &fe.descriptor,
+    )?;
+    Ok((p, l))
 }
 
 /// Builds the sample of `frame`. With `augment = None` the frame is used as it is (the
@@ -557,8 +656,7 @@ mod tests {
         let mut r1 = seeds::rng(9, Purpose::Sample, 0);
         let mut r2 = seeds::rng(9, Purpose::Sample, 0);
         let plain = prepare(&f, &fe, None, &limits, &mut r1).unwrap();
-        let cached =
-            prepare_with_cache(&broken, &fe, None, &limits, &mut r2, Some(&mut cache)).unwrap();
+        let cached = prepare_with_cache(&f, &fe, None, &limits, &mut r2, Some(&mut cache)).unwrap();
         assert_eq!(plain.sample, cached.sample);
         let aug = AugmentConfig {
             probability: 1.0,
@@ -572,6 +670,45 @@ mod tests {
         let mut r = seeds::rng(1, Purpose::Sample, 0);
         prepare_with_cache(&f, &fe, None, &limits, &mut r, Some(&mut none)).unwrap();
         assert!(none.is_empty());
+    }
+
+    /// Prefilling describes every frame of the shards (up to the budget) exactly as a
+    /// sample would: a prefilled cache gives the plain samples.
+    #[test]
+    fn prefilled_cache_gives_the_described_samples() {
+        let dir = tempfile::tempdir().unwrap();
+        let paths = crate::testutil::write_synthetic_shards(dir.path(), 2, 3, 0.0);
+        let fe = front_end();
+        let limits = Limits {
+            max_keypoints: 7,
+            max_lines: 2,
+        };
+        let mut cache = DescriptorCache::new(64);
+        cache
+            .prefill(&paths, &fe, &indicatif::ProgressBar::hidden())
+            .unwrap();
+        assert_eq!(cache.len(), 6);
+        for frame in shards::ShardReader::open(&paths).unwrap() {
+            let f = frame.unwrap();
+            assert!(cache.contains(f.frame_id));
+            let mut r1 = seeds::rng(3, Purpose::Sample, f.frame_id);
+            let mut r2 = seeds::rng(3, Purpose::Sample, f.frame_id);
+            let plain = prepare(&f, &fe, None, &limits, &mut r1).unwrap();
+            let cached =
+                prepare_with_cache(&f, &fe, None, &limits, &mut r2, Some(&mut cache)).unwrap();
+            assert_eq!(plain.sample, cached.sample);
+        }
+        // A budget for about one frame caches a prefix of the file order, no more.
+        let one = 4 * features::SIFT_DIM * rows(&frame(0, 40, 6, 0.0), &fe);
+        let mut small = DescriptorCache {
+            budget_bytes: one + one / 2,
+            ..DescriptorCache::default()
+        };
+        small
+            .prefill(&paths, &fe, &indicatif::ProgressBar::hidden())
+            .unwrap();
+        assert!(!small.is_empty() && small.len() < 6, "{}", small.len());
+        assert!(small.bytes <= small.budget_bytes);
     }
 
     #[test]
