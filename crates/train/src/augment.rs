@@ -84,12 +84,8 @@ pub struct Sample {
 #[derive(Clone, Debug)]
 pub struct Augmented {
     pub image: GrayImage,
-    pub camera: Camera,
-    pub pose: Pose,
-    pub keypoints: Vec<[f64; 2]>,
-    pub keypoint_index: Vec<usize>,
-    pub segments: Vec<[f64; 4]>,
-    pub segment_index: Vec<usize>,
+    /// Camera, pose, kept keypoints and segments ([`transform`]).
+    pub geometry: Geometry,
     pub params: AugmentParams,
 }
 
@@ -247,30 +243,34 @@ pub fn apply(
     sample: &Sample,
     params: &AugmentParams,
 ) -> Result<Augmented, geometry::GeometryError> {
-    let g = transform(
-        &sample.camera,
-        &sample.pose,
-        &sample.keypoints,
-        &sample.segments,
-        params,
-    )?;
-    let image = warp(
-        &sample.image,
-        &similarity(&sample.camera, params),
-        g.camera.width as u32,
-        g.camera.height as u32,
-        params,
-    );
     Ok(Augmented {
-        image,
-        camera: g.camera,
-        pose: g.pose,
-        keypoints: g.keypoints,
-        keypoint_index: g.keypoint_index,
-        segments: g.segments,
-        segment_index: g.segment_index,
+        image: warp_image(&sample.image, &sample.camera, params)?,
+        geometry: transform(
+            &sample.camera,
+            &sample.pose,
+            &sample.keypoints,
+            &sample.segments,
+            params,
+        )?,
         params: *params,
     })
+}
+
+/// The image part of [`apply`]: `image` (taken with `camera`) as the augmented camera
+/// sees it.
+pub fn warp_image(
+    image: &GrayImage,
+    camera: &Camera,
+    params: &AugmentParams,
+) -> Result<GrayImage, geometry::GeometryError> {
+    let out = camera.scaled(params.scale)?;
+    Ok(warp(
+        image,
+        &similarity(camera, params),
+        out.width as u32,
+        out.height as u32,
+        params,
+    ))
 }
 
 /// Resamples the image under `sim` (bilinear, black outside) and applies contrast about
@@ -390,21 +390,24 @@ mod tests {
             let params = draw_params(&cfg, camera, &mut rng);
             assert!(params.rotation_rad != 0.0 && params.scale != 1.0);
             let aug = apply(&sample, &params).unwrap();
-            for (k, &i) in aug.keypoint_index.iter().enumerate() {
+            for (k, &i) in aug.geometry.keypoint_index.iter().enumerate() {
                 let proj = aug
+                    .geometry
                     .camera
-                    .project(&aug.pose.transform_point(&pts[i]))
+                    .project(&aug.geometry.pose.transform_point(&pts[i]))
                     .unwrap();
-                let err = (proj - Vector2::new(aug.keypoints[k][0], aug.keypoints[k][1])).norm();
+                let err = (proj
+                    - Vector2::new(aug.geometry.keypoints[k][0], aug.geometry.keypoints[k][1]))
+                .norm();
                 worst = worst.max(err);
             }
-            kept += aug.keypoints.len();
-            for k in &aug.keypoints {
+            kept += aug.geometry.keypoints.len();
+            for k in &aug.geometry.keypoints {
                 assert!(
                     k[0] >= 0.0
                         && k[1] >= 0.0
-                        && k[0] < aug.camera.width as f64
-                        && k[1] < aug.camera.height as f64
+                        && k[0] < aug.geometry.camera.width as f64
+                        && k[1] < aug.geometry.camera.height as f64
                 );
             }
         }
@@ -443,9 +446,17 @@ mod tests {
         let aug = apply(&sample, &params).unwrap();
         let rz = UnitQuaternion::from_axis_angle(&Vector3::z_axis(), params.rotation_rad);
         let wrong = Pose::new(pose.rotation * rz, pose.translation);
-        let good = aug.camera.project(&aug.pose.transform_point(&x)).unwrap();
-        let bad = aug.camera.project(&wrong.transform_point(&x)).unwrap();
-        let target = Vector2::new(aug.keypoints[0][0], aug.keypoints[0][1]);
+        let good = aug
+            .geometry
+            .camera
+            .project(&aug.geometry.pose.transform_point(&x))
+            .unwrap();
+        let bad = aug
+            .geometry
+            .camera
+            .project(&wrong.transform_point(&x))
+            .unwrap();
+        let target = Vector2::new(aug.geometry.keypoints[0][0], aug.geometry.keypoints[0][1]);
         assert!((good - target).norm() < 1e-9);
         assert!((bad - target).norm() > 1.0);
     }
@@ -480,16 +491,16 @@ mod tests {
             rotation_rad: 25f64.to_radians(),
         };
         let aug = apply(&sample, &params).unwrap();
-        let k = aug.keypoints[0];
+        let k = aug.geometry.keypoints[0];
         let v = aug.image.get_pixel(k[0] as u32, k[1] as u32)[0];
         assert!(v > 200, "pixel under the moved keypoint is {v}");
         // Segments are clipped into the new image.
-        for s in &aug.segments {
+        for s in &aug.geometry.segments {
             for (i, v) in s.iter().enumerate() {
                 let lim = if i % 2 == 0 {
-                    aug.camera.width
+                    aug.geometry.camera.width
                 } else {
-                    aug.camera.height
+                    aug.geometry.camera.height
                 } as f64;
                 assert!(*v >= -1e-9 && *v <= lim + 1e-9);
             }

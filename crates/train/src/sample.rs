@@ -148,7 +148,15 @@ impl DescriptorCache {
         let chunk = 2 * rayon::current_num_threads().max(1);
         let mut planned = self.bytes;
         let mut batch = Vec::with_capacity(chunk);
-        for frame in shards::ShardReader::open(paths)? {
+        let reader = shards::ShardReader::open(paths)?;
+        bar.set_length(
+            reader
+                .shards()
+                .iter()
+                .map(|s| s.frame_ids().count() as u64)
+                .sum(),
+        );
+        for frame in reader {
             let frame = frame?;
             if self.contains(frame.frame_id) {
                 continue;
@@ -308,30 +316,10 @@ pub fn prepare_with_cache<R: Rng>(
     let image = if from_cache {
         None
     } else {
-        let gray = decode_gray(frame)?;
-        if (gray.width() as u64, gray.height() as u64) != (frame.camera.width, frame.camera.height)
-        {
-            return Err(frame_err(
-                frame,
-                format!(
-                    "image is {}x{} but the camera says {}x{}",
-                    gray.width(),
-                    gray.height(),
-                    frame.camera.width,
-                    frame.camera.height
-                ),
-            ));
-        }
-        let input = augment::Sample {
-            image: gray,
-            camera: frame.camera.clone(),
-            pose: frame.pose,
-            keypoints: Vec::new(),
-            segments: Vec::new(),
-        };
-        let warped = augment::apply(&input, &params)
+        let gray = decode_checked(frame)?;
+        let warped = augment::warp_image(&gray, &frame.camera, &params)
             .map_err(|e| frame_err(frame, format!("augmentation: {e}")))?;
-        Some(warped.image)
+        Some(warped)
     };
     let cached = match cache {
         Some(c) if unchanged => c.get(frame, image.as_ref(), front_end)?,

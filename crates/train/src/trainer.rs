@@ -118,16 +118,6 @@ fn progress_bar(total: u64, start: u64, show: bool) -> ProgressBar {
     bar
 }
 
-/// Frames in the training shards (from their indexes, nothing decoded).
-fn stream_frame_count(shards: &[PathBuf]) -> Result<u64, TrainError> {
-    let reader = shards::ShardReader::open(shards)?;
-    Ok(reader
-        .shards()
-        .iter()
-        .map(|s| s.frame_ids().count() as u64)
-        .sum())
-}
-
 /// Trains on any autodiff backend (see [`train`]).
 pub fn train_on<B: AutodiffBackend + Pl2MapBackend>(
     config: TrainConfig,
@@ -215,8 +205,7 @@ pub fn train_on<B: AutodiffBackend + Pl2MapBackend>(
     // epoch (about 100 s of a 15-minute CPU run on the synthetic scene). Results do not
     // depend on it.
     if config.descriptor_cache_mib > 0 && config.augment.probability < 1.0 {
-        let total: u64 = stream_frame_count(shards)?;
-        let bar = progress_bar(total, 0, options.progress);
+        let bar = progress_bar(0, 0, options.progress);
         bar.set_message("describing frames for the descriptor cache");
         cache.prefill(shards, &fe, &bar)?;
         bar.finish_and_clear();
