@@ -122,7 +122,7 @@ impl Localiser for NetworkLocaliser {
 mod tests {
     use super::*;
     use geometry::{Camera, CameraModel, Pose};
-    use model::{CpuBackend, LayerKind};
+    use model::CpuBackend;
     use shards::{FrameRecord, ImageFormat, LabelSource, Split};
 
     /// A textured 160x120 PNG: bright squares and bars on a gradient, so SIFT and LSD
@@ -162,13 +162,7 @@ mod tests {
     }
 
     fn localiser() -> NetworkLocaliser {
-        let mut c = train::TrainConfig::default();
-        c.model.line_tokens = 4;
-        c.front_end.samples_per_line = 4;
-        c.model.ffn_dim = 32;
-        c.model.layers = vec![LayerKind::SelfAttention];
-        c.model.head_hidden = vec![16];
-        c.query_max_keypoints = 50;
+        let c = train::TrainConfig::tiny();
         let net = c.model.init::<CpuBackend>(4, &Default::default()).unwrap();
         NetworkLocaliser::from_predictor(Predictor::from_parts(net, c), "tiny")
     }

@@ -24,7 +24,7 @@ pub mod stream;
 mod testutil;
 pub mod trainer;
 
-pub use config::TrainConfig;
+pub use config::{LrSchedule, TrainConfig};
 pub use error::TrainError;
 pub use predict::{ImagePrediction, PredictedLine, PredictedPoint, Predictor};
 pub use sample::Limits;

@@ -177,17 +177,9 @@ mod tests {
     use crate::sample::{Limits, decode_gray, prepare};
     use crate::seeds::{self, Purpose};
     use crate::testutil::{camera, frame};
-    use model::LayerKind;
 
     fn config() -> TrainConfig {
-        let mut c = TrainConfig::default();
-        c.model.line_tokens = 4;
-        c.front_end.samples_per_line = 4;
-        c.model.ffn_dim = 32;
-        c.model.layers = vec![LayerKind::SelfAttention];
-        c.model.head_hidden = vec![16];
-        c.query_max_keypoints = 50;
-        c
+        TrainConfig::tiny()
     }
 
     /// Training describes given positions the way the predictor describes detections:

@@ -78,12 +78,13 @@ pub fn run(args: Args, quiet: bool) -> anyhow::Result<()> {
         c.seed
     );
     println!(
-        "network: D = {}, {} layers, head widths {:?}; lr {:.1e} halved {} times; limits {} keypoints, {} lines",
+        "network: D = {}, {} layers, head widths {:?}; lr {:.1e} to 1/2^{} ({:?}); limits {} keypoints, {} lines",
         c.model.descriptor_dim,
         c.model.layers.len(),
         c.model.head_hidden,
         c.learning_rate,
         c.lr_halvings,
+        c.lr_schedule,
         c.limits.max_keypoints,
         c.limits.max_lines
     );
