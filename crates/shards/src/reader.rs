@@ -45,6 +45,12 @@ pub struct ReaderOptions {
     pub max_chunk_bytes: u64,
     /// Check each chunk's CRC32 after decompressing it.
     pub verify_chunk_crc: bool,
+    /// Decompressed chunks a [`ShardReader`] keeps, least recently used out first, up
+    /// to this many bytes (the two most recent are always kept: a frame's image and
+    /// labels may straddle a chunk boundary). A sequential read needs no more; random
+    /// access in a window (a training stream's shuffle buffer) decompresses each chunk
+    /// of the window once instead of once per frame.
+    pub cache_bytes: u64,
 }
 
 impl Default for ReaderOptions {
@@ -52,6 +58,7 @@ impl Default for ReaderOptions {
         ReaderOptions {
             max_chunk_bytes: 1 << 30,
             verify_chunk_crc: true,
+            cache_bytes: 0,
         }
     }
 }
@@ -582,9 +589,9 @@ pub struct ShardReader {
     /// frame id -> (shard, position in its frame table).
     by_id: HashMap<u64, (usize, usize)>,
     cursor: (usize, usize),
-    /// The two most recently used chunks: a frame's image and labels may straddle a
-    /// chunk boundary.
+    /// Recently used chunks, most recent last (see [`ReaderOptions::cache_bytes`]).
     cache: Vec<CachedChunk>,
+    decompressed: u64,
     options: ReaderOptions,
 }
 
@@ -628,6 +635,7 @@ impl ShardReader {
             by_id,
             cursor: (0, 0),
             cache: Vec::with_capacity(2),
+            decompressed: 0,
             options,
         })
     }
@@ -674,23 +682,33 @@ impl ShardReader {
     }
 
     fn chunk(&mut self, shard: usize, chunk: usize) -> Result<Arc<Vec<u8>>, ShardError> {
-        if let Some(c) = self
+        if let Some(i) = self
             .cache
             .iter()
-            .find(|c| c.shard == shard && c.chunk == chunk)
+            .position(|c| c.shard == shard && c.chunk == chunk)
         {
-            return Ok(c.data.clone());
+            let hit = self.cache.remove(i);
+            let data = hit.data.clone();
+            self.cache.push(hit);
+            return Ok(data);
         }
         let data = Arc::new(self.shards[shard].decompress_chunk(chunk, &self.options)?);
-        if self.cache.len() == 2 {
-            self.cache.remove(0);
-        }
+        self.decompressed += 1;
         self.cache.push(CachedChunk {
             shard,
             chunk,
             data: data.clone(),
         });
+        let mut held: u64 = self.cache.iter().map(|c| c.data.len() as u64).sum();
+        while self.cache.len() > 2 && held > self.options.cache_bytes {
+            held -= self.cache.remove(0).data.len() as u64;
+        }
         Ok(data)
+    }
+
+    /// Chunks decompressed so far (each counted once per decompression).
+    pub fn chunks_decompressed(&self) -> u64 {
+        self.decompressed
     }
 
     fn decode(&mut self, si: usize, fi: usize) -> Result<FrameRecord, ShardError> {

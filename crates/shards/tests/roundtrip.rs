@@ -79,6 +79,47 @@ fn seek_and_random_access() {
     assert_eq!(reader.next().unwrap().unwrap().frame_id, 0);
 }
 
+/// A chunk cache changes how often chunks are decompressed, never what is read.
+#[test]
+fn chunk_cache_decompresses_each_chunk_of_a_window_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = frames(0..30);
+    let path = dir.path().join("s.mcap");
+    write_shard(&path, &input, &small_chunks()).unwrap();
+    let chunks = ShardFile::open(&path).unwrap().chunk_count() as u64;
+    assert!(chunks > 3, "chunks: {chunks}");
+    // Random access hopping over the whole shard, three times.
+    let order: Vec<u64> = (0..90).map(|i| (i * 17 + i / 30) % 30).collect();
+    let read = |cache_bytes: u64| {
+        let options = shards::ReaderOptions {
+            cache_bytes,
+            ..Default::default()
+        };
+        let mut r = ShardReader::open_with([&path], options).unwrap();
+        for &id in &order {
+            assert_bitwise_eq(&r.read_frame(id).unwrap(), &input[id as usize]);
+        }
+        r.chunks_decompressed()
+    };
+    // The chunks that hold frames: a sequential read decompresses each of them once.
+    let mut seq = ShardReader::open([&path]).unwrap();
+    assert_eq!(seq.by_ref().count(), 30);
+    let used = seq.chunks_decompressed();
+    assert!(used > 3 && used <= chunks, "{used} of {chunks}");
+    let uncached = read(0);
+    let cached = read(1 << 30);
+    assert_eq!(
+        cached, used,
+        "a cache holding the shard decompresses each chunk once"
+    );
+    assert!(
+        uncached > 2 * used,
+        "without a cache: {uncached} decompressions"
+    );
+    // A budget of about two chunks behaves like none; it never drops below two.
+    assert!(read(1) >= cached);
+}
+
 fn source(all: &[FrameRecord]) -> impl FrameSource + '_ {
     move |id: u64| -> Result<FrameRecord, Box<dyn std::error::Error + Send + Sync>> {
         all.iter()

@@ -58,6 +58,10 @@ pub struct TrainConfig {
     /// Memory for the descriptors of unaugmented images (MiB; 0: none): such a sample
     /// then needs no front-end call. Changes speed only, never values.
     pub descriptor_cache_mib: usize,
+    /// Memory for decompressed shard chunks (MiB): the shuffle buffer reads frames out
+    /// of file order, and each read outside the cache decompresses a whole chunk
+    /// (4 MiB by default) on the reader thread. Changes speed only, never values.
+    pub chunk_cache_mib: usize,
 }
 
 impl Default for TrainConfig {
@@ -79,6 +83,7 @@ impl Default for TrainConfig {
             shuffle_buffer: 64,
             prefetch: 4,
             descriptor_cache_mib: 1024,
+            chunk_cache_mib: 256,
         }
     }
 }

@@ -508,6 +508,7 @@ mod tests {
             shuffle_buffer: 4,
             prefetch: 2,
             seed: 1,
+            chunk_cache_bytes: 0,
         };
         let mut stream = FrameStream::start(&paths, cfg, 0, move |at, f| {
             let mut rng = seeds::rng(1, Purpose::Sample, at.position);

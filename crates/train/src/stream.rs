@@ -16,7 +16,7 @@ use crate::error::TrainError;
 use crate::seeds::{self, Purpose};
 use rand::Rng;
 use rand::seq::SliceRandom;
-use shards::{FrameRecord, ShardReader};
+use shards::{FrameRecord, ReaderOptions, ShardReader};
 use std::path::PathBuf;
 use std::sync::mpsc::{Receiver, SyncSender, sync_channel};
 use std::thread::JoinHandle;
@@ -65,6 +65,10 @@ pub struct StreamConfig {
     /// Prepared items kept ready ahead of the consumer.
     pub prefetch: usize,
     pub seed: u64,
+    /// Decompressed shard chunks the reader keeps (bytes; see
+    /// `shards::ReaderOptions::cache_bytes`). Speed only: the shuffle buffer reads
+    /// frames out of file order, and without it most reads decompress a whole chunk.
+    pub chunk_cache_bytes: u64,
 }
 
 /// Where the stream is: the endless position and the frame there.
@@ -97,7 +101,11 @@ impl<T: Send + 'static> FrameStream<T> {
     where
         F: FnMut(&StreamPosition, FrameRecord) -> Result<T, TrainError> + Send + 'static,
     {
-        let mut reader = ShardReader::open(paths)?;
+        let options = ReaderOptions {
+            cache_bytes: config.chunk_cache_bytes,
+            ..Default::default()
+        };
+        let mut reader = ShardReader::open_with(paths, options)?;
         let shard_frames: Vec<Vec<u64>> = reader
             .shards()
             .iter()
@@ -234,6 +242,7 @@ mod tests {
             shuffle_buffer: 3,
             prefetch: 2,
             seed: 5,
+            chunk_cache_bytes: 0,
         };
         let ids = |start: u64, count: usize| -> Vec<(u64, u64)> {
             let mut s = FrameStream::start(&paths, cfg, start, |_, f| Ok(f.frame_id)).unwrap();
@@ -264,6 +273,7 @@ mod tests {
                 shuffle_buffer: 2,
                 prefetch: 1,
                 seed: 0,
+                chunk_cache_bytes: 0,
             },
             0,
             |_, f| Ok(f.frame_id),

@@ -191,6 +191,7 @@ pub fn train_on<B: AutodiffBackend + Pl2MapBackend>(
         shuffle_buffer: config.shuffle_buffer,
         prefetch: config.prefetch,
         seed: config.seed,
+        chunk_cache_bytes: (config.chunk_cache_mib as u64) << 20,
     };
     let (fe, aug, limits, seed) = (
         config.front_end.clone(),
