@@ -147,7 +147,9 @@ impl TrainConfig {
             && a.scale_max.is_finite()
             && a.brightness >= 0.0
             && a.contrast >= 0.0
-            && a.max_rotation_deg >= 0.0;
+            && a.max_rotation_deg >= 0.0
+            && a.descriptor_noise.is_finite()
+            && a.descriptor_noise >= 0.0;
         if !in_range {
             return bad(format!("augment is out of range: {a:?}"));
         }

@@ -325,7 +325,7 @@ pub fn prepare_with_cache<R: Rng>(
         Some(c) if unchanged => c.get(frame, image.as_ref(), front_end)?,
         _ => None,
     };
-    let (point_descriptors, line_descriptors) = match (cached, &image) {
+    let (mut point_descriptors, mut line_descriptors) = match (cached, &image) {
         (Some((p, l)), _) => {
             let d = features::SIFT_DIM;
             let td = front_end.samples_per_line * d;
@@ -358,6 +358,13 @@ pub fn prepare_with_cache<R: Rng>(
             ));
         }
     };
+
+    // Drawn after everything else, and only when on: without it the stream is the same.
+    if let Some(cfg) = augment.filter(|c| c.descriptor_noise > 0.0) {
+        let d = features::SIFT_DIM;
+        augment::jitter_descriptors(&mut point_descriptors, d, cfg.descriptor_noise, rng);
+        augment::jitter_descriptors(&mut line_descriptors, d, cfg.descriptor_noise, rng);
+    }
 
     let f32x = |v: &[f64]| -> Vec<f32> { v.iter().map(|&x| x as f32).collect() };
     let point_valid: Vec<bool> = keypoint_index
