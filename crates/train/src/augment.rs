@@ -62,20 +62,20 @@ pub fn jitter_descriptors<R: Rng>(rows: &mut [f32], dim: usize, norm: f64, rng: 
     if norm <= 0.0 || dim == 0 {
         return;
     }
-    let sigma = norm / (dim as f64).sqrt();
+    // f32 and the ziggurat normal: this runs on the reader thread for every descriptor
+    // of every sample (about 200,000 values a step at 16 x (32 + 6 x 12)), where
+    // Box-Muller in f64 cost a third of a 0.05 s step.
+    let sigma = (norm / (dim as f64).sqrt()) as f32;
     for row in rows.chunks_mut(dim) {
-        let mut sq = 0.0f64;
+        let mut sq = 0.0f32;
         for v in row.iter_mut() {
-            // Box-Muller; 1 - u keeps the logarithm finite.
-            let (u1, u2): (f64, f64) = (1.0 - rng.random::<f64>(), rng.random());
-            let z = (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos();
-            let x = *v as f64 + sigma * z;
-            *v = x as f32;
-            sq += x * x;
+            let z: f32 = rng.sample(rand_distr::StandardNormal);
+            *v += sigma * z;
+            sq += *v * *v;
         }
         let n = sq.sqrt();
         if n > 0.0 {
-            row.iter_mut().for_each(|v| *v = (*v as f64 / n) as f32);
+            row.iter_mut().for_each(|v| *v /= n);
         }
     }
 }
