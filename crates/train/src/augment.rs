@@ -62,9 +62,9 @@ pub fn jitter_descriptors<R: Rng>(rows: &mut [f32], dim: usize, norm: f64, rng: 
     if norm <= 0.0 || dim == 0 {
         return;
     }
-    // f32 and the ziggurat normal: this runs on the reader thread for every descriptor
-    // of every sample (about 200,000 values a step at 16 x (32 + 6 x 12)), where
-    // Box-Muller in f64 cost a third of a 0.05 s step.
+    // f32 and the ziggurat normal (mostly a table lookup, where Box-Muller takes a
+    // logarithm, a square root and a cosine): this runs on the reader thread for every
+    // descriptor of every sample, about 200,000 values a step at 16 x (32 + 6 x 12).
     let sigma = (norm / (dim as f64).sqrt()) as f32;
     for row in rows.chunks_mut(dim) {
         let mut sq = 0.0f32;

@@ -53,7 +53,8 @@ pub struct TrainConfig {
     pub limits: Limits,
     /// Frames in the stream's shuffle buffer.
     pub shuffle_buffer: usize,
-    /// Prepared samples kept ready by the background thread.
+    /// Prepared samples kept ready by the background thread (at least two steps' worth,
+    /// `2 * batch_frames`, whatever this says).
     pub prefetch: usize,
     /// Memory for the descriptors of unaugmented images (MiB; 0: none): such a sample
     /// then needs no front-end call. Changes speed only, never values.

@@ -189,7 +189,9 @@ pub fn train_on<B: AutodiffBackend + Pl2MapBackend>(
 
     let stream_cfg = StreamConfig {
         shuffle_buffer: config.shuffle_buffer,
-        prefetch: config.prefetch,
+        // A step takes `batch_frames` samples at once: a smaller queue would leave the
+        // reader idle during the step and the step waiting for it at the next one.
+        prefetch: config.prefetch.max(2 * config.batch_frames),
         seed: config.seed,
         chunk_cache_bytes: (config.chunk_cache_mib as u64) << 20,
     };
