@@ -31,7 +31,7 @@ pub enum ReprojectionTargets {
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(default, deny_unknown_fields)]
 pub struct LossConfig {
     /// delta_m, delta_r, delta_pi.
     pub weight_map: f64,

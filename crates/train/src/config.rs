@@ -211,6 +211,10 @@ mod tests {
         assert_eq!(p.iterations, 50);
         assert_eq!(p.limits.max_lines, 8);
         assert_eq!(p.limits.max_keypoints, 1024);
+        // Partial nested tables too (pipeline/synthetic.toml sets one loss weight).
+        let p: TrainConfig = toml::from_str("[loss]\nweight_reprojection = 0.0\n").unwrap();
+        assert_eq!(p.loss.weight_reprojection, 0.0);
+        assert_eq!(p.loss.tau_max, LossConfig::indoor().tau_max);
         assert!(toml::from_str::<TrainConfig>("iteration = 5").is_err());
     }
 
