@@ -36,18 +36,23 @@ fn config(frames_per_shard: usize) -> ShardStageConfig {
     c
 }
 
+/// The whole shard stage over the scene's imported labels into `out`.
+fn run_all(scene: &Scene, frames_per_shard: usize, out: &std::path::Path) -> shard::ShardOutput {
+    shard::run(
+        &config(frames_per_shard),
+        &scene.frames_path,
+        &scene.out("labels"),
+        out,
+        None,
+    )
+    .unwrap()
+}
+
 #[test]
 fn shards_hold_the_label_tables_and_the_test_frames() {
     let scene = scene_with_labels();
     let out = scene.out("shards");
-    let o = shard::run(
-        &config(3),
-        &scene.frames_path,
-        &scene.out("labels"),
-        &out,
-        None,
-    )
-    .unwrap();
+    let o = run_all(&scene, 3, &out);
     assert!(o.complete && !o.skipped);
     let m = Manifest::load(out.join(shard::MANIFEST_FILE)).unwrap();
     assert_eq!(m, o.manifest);
@@ -125,24 +130,10 @@ fn shards_hold_the_label_tables_and_the_test_frames() {
     assert_eq!(seen, 10);
 
     // Rerun: skipped. Different frames per shard: a new plan, rewritten.
-    let again = shard::run(
-        &config(3),
-        &scene.frames_path,
-        &scene.out("labels"),
-        &out,
-        None,
-    )
-    .unwrap();
+    let again = run_all(&scene, 3, &out);
     assert!(again.skipped);
     assert_eq!(again.manifest, m);
-    let other = shard::run(
-        &config(4),
-        &scene.frames_path,
-        &scene.out("labels"),
-        &out,
-        None,
-    )
-    .unwrap();
+    let other = run_all(&scene, 4, &out);
     assert!(!other.skipped);
     assert_eq!(other.manifest.planned_shards, 3);
 }
@@ -184,14 +175,7 @@ fn work_units_add_up_to_a_single_run() {
 fn only_shards_whose_frames_changed_are_rewritten() {
     let scene = scene_with_labels();
     let out = scene.out("shards");
-    let first = shard::run(
-        &config(2),
-        &scene.frames_path,
-        &scene.out("labels"),
-        &out,
-        None,
-    )
-    .unwrap();
+    let first = run_all(&scene, 2, &out);
     assert!(first.reused.is_empty());
     let m = &first.manifest;
     assert_eq!(m.planned_shards, 6);

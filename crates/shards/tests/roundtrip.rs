@@ -53,12 +53,18 @@ fn round_trip_is_bitwise_and_in_order() {
     }
 }
 
+/// `input` written to `dir/s.mcap` in 16 KiB chunks.
+fn small_chunked_shard(dir: &std::path::Path, input: &[FrameRecord]) -> std::path::PathBuf {
+    let path = dir.join("s.mcap");
+    write_shard(&path, input, &small_chunks()).unwrap();
+    path
+}
+
 #[test]
 fn seek_and_random_access() {
     let dir = tempfile::tempdir().unwrap();
     let input = frames(0..30);
-    let path = dir.path().join("s.mcap");
-    write_shard(&path, &input, &small_chunks()).unwrap();
+    let path = small_chunked_shard(dir.path(), &input);
     let mut reader = ShardReader::open([&path]).unwrap();
 
     reader.seek(17).unwrap();
@@ -84,8 +90,7 @@ fn seek_and_random_access() {
 fn chunk_cache_decompresses_each_chunk_of_a_window_once() {
     let dir = tempfile::tempdir().unwrap();
     let input = frames(0..30);
-    let path = dir.path().join("s.mcap");
-    write_shard(&path, &input, &small_chunks()).unwrap();
+    let path = small_chunked_shard(dir.path(), &input);
     let chunks = ShardFile::open(&path).unwrap().chunk_count() as u64;
     assert!(chunks > 3, "chunks: {chunks}");
     // Random access hopping over the whole shard, three times.

@@ -57,7 +57,8 @@ impl Default for AugmentConfig {
 }
 
 /// Adds Gaussian noise of expected L2 norm about `norm` to each `dim`-wide row of `rows`
-/// and L2-normalises the row again (see [`AugmentConfig::descriptor_noise`]).
+/// and L2-normalises the row again (see [`AugmentConfig::descriptor_noise`]). Draws
+/// nothing from `rng` when `norm` is 0.
 pub fn jitter_descriptors<R: Rng>(rows: &mut [f32], dim: usize, norm: f64, rng: &mut R) {
     if norm <= 0.0 || dim == 0 {
         return;

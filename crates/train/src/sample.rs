@@ -359,8 +359,9 @@ pub fn prepare_with_cache<R: Rng>(
         }
     };
 
-    // Drawn after everything else, and only when on: without it the stream is the same.
-    if let Some(cfg) = augment.filter(|c| c.descriptor_noise > 0.0) {
+    // Drawn after everything else, and nothing is drawn when it is off: without it the
+    // stream is the same.
+    if let Some(cfg) = augment {
         let d = features::SIFT_DIM;
         augment::jitter_descriptors(&mut point_descriptors, d, cfg.descriptor_noise, rng);
         augment::jitter_descriptors(&mut line_descriptors, d, cfg.descriptor_noise, rng);
