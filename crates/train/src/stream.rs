@@ -221,6 +221,29 @@ mod tests {
     }
 
     #[test]
+    fn the_default_buffer_mixes_a_whole_scene_into_the_first_steps() {
+        // 2000 frames in four shards of 500 (the pipeline's shard size), as 7-Scenes'
+        // larger scenes have: the first 64 frames of an epoch (four steps of 16) come
+        // from every shard.
+        let shards: Vec<Vec<u64>> = (0..4).map(|s| (s * 500..(s + 1) * 500).collect()).collect();
+        let shards_in = |order: &[FrameRef]| -> HashSet<usize> {
+            order[..64].iter().map(|f| f.shard).collect()
+        };
+        let buffer = crate::TrainConfig::default().shuffle_buffer;
+        for epoch in 0..3 {
+            let order = epoch_order(&shards, buffer, 5, epoch);
+            assert_eq!(
+                shards_in(&order).len(),
+                4,
+                "epoch {epoch}: {:?}",
+                &order[..64]
+            );
+        }
+        // A 64-frame buffer (the old default) keeps them inside the first shard read.
+        assert_eq!(shards_in(&epoch_order(&shards, 64, 5, 0)).len(), 1);
+    }
+
+    #[test]
     fn a_buffer_of_one_keeps_file_order_within_shards() {
         let shards = layout();
         let a = epoch_order(&shards, 1, 3, 0);
