@@ -30,8 +30,14 @@ pub struct ModelConfig {
     pub ffn_dim: usize,
     /// The graph network, in order.
     pub layers: Vec<LayerKind>,
-    /// Hidden widths of the point and line heads.
+    /// Hidden widths of the point head, and of the line head unless `line_head_hidden`
+    /// says otherwise.
     pub head_hidden: Vec<usize>,
+    /// Hidden widths of the line head when they differ from the point head's (None: the
+    /// same, as the reference). A scene has far fewer line tracks than points to
+    /// remember, so a deep point head need not be paid for on every line too.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub line_head_hidden: Option<Vec<usize>>,
     /// Dropout probability of the line encoder during training.
     pub dropout: f64,
     /// Reliability r = 1 / (1 + |beta u|).
@@ -66,6 +72,7 @@ impl ModelConfig {
             ffn_dim: 4 * descriptor_dim,
             layers: vec![SelfAttention, Cross, SelfAttention, Cross, SelfAttention],
             head_hidden: vec![512, 1024, 512],
+            line_head_hidden: None,
             dropout: 0.1,
             reliability_beta: 100.0,
             point_input_scale: 1.0,
@@ -80,6 +87,13 @@ impl ModelConfig {
     /// SuperPoint-like descriptors (D = 256), the paper's network.
     pub fn superpoint() -> Self {
         Self::new(256)
+    }
+
+    /// Hidden widths of the line head.
+    pub fn line_head_widths(&self) -> &[usize] {
+        self.line_head_hidden
+            .as_deref()
+            .unwrap_or(&self.head_hidden)
     }
 
     pub fn head_dim(&self) -> usize {
@@ -107,6 +121,12 @@ impl ModelConfig {
             return bad(format!(
                 "head_hidden widths must be positive, got {:?}",
                 self.head_hidden
+            ));
+        }
+        if self.line_head_widths().contains(&0) {
+            return bad(format!(
+                "line_head_hidden widths must be positive, got {:?}",
+                self.line_head_widths()
             ));
         }
         if !(0.0..1.0).contains(&self.dropout) {

@@ -54,14 +54,14 @@ impl ModelConfig {
         let mut init = Initializer::<B>::new(seed, device);
         let line_encoder = LineEncoder::new(&mut init, d, self.heads, self.ffn_dim);
         let graph = GraphNetwork::new(&mut init, d, self.heads, &self.layers);
-        let widths = |out: usize| {
+        let widths = |hidden: &[usize], out: usize| {
             let mut w = vec![d];
-            w.extend_from_slice(&self.head_hidden);
+            w.extend_from_slice(hidden);
             w.push(out);
             w
         };
-        let point_head = Mlp::new(&mut init, &widths(POINT_OUTPUTS));
-        let line_head = Mlp::new(&mut init, &widths(LINE_OUTPUTS));
+        let point_head = Mlp::new(&mut init, &widths(&self.head_hidden, POINT_OUTPUTS));
+        let line_head = Mlp::new(&mut init, &widths(self.line_head_widths(), LINE_OUTPUTS));
         Ok(Pl2Map {
             line_encoder,
             graph,
@@ -355,6 +355,35 @@ mod tests {
         assert_eq!(c.line_head, 1_185_287);
         assert_eq!(c.total(), 6_444_555);
         assert_eq!(net.num_params(), 6_444_555);
+    }
+
+    #[test]
+    fn the_line_head_can_be_smaller_than_the_point_head() {
+        let mut cfg = ModelConfig::sift();
+        cfg.head_hidden = vec![512, 512, 512];
+        let same = cfg
+            .init::<B>(0, &Default::default())
+            .unwrap()
+            .parameter_counts();
+        // 128 -> 512 -> 512 -> 512 -> 7, weights and biases.
+        assert_eq!(
+            same.line_head,
+            128 * 512 + 512 + 2 * (512 * 512 + 512) + 512 * 7 + 7
+        );
+        cfg.line_head_hidden = Some(vec![64]);
+        let small = cfg
+            .init::<B>(0, &Default::default())
+            .unwrap()
+            .parameter_counts();
+        assert_eq!(small.line_head, 128 * 64 + 64 + 64 * 7 + 7);
+        assert_eq!(small.point_head, same.point_head);
+        // Configs without the key read as before and write without it.
+        let text = serde_json::to_string(&ModelConfig::sift()).unwrap();
+        assert!(!text.contains("line_head_hidden"), "{text}");
+        let back: ModelConfig = serde_json::from_str(&text).unwrap();
+        assert_eq!(back, ModelConfig::sift());
+        cfg.line_head_hidden = Some(vec![0]);
+        assert!(cfg.validate().is_err());
     }
 
     #[test]

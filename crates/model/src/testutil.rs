@@ -15,6 +15,7 @@ pub fn tiny_config() -> ModelConfig {
         ffn_dim: 16,
         layers: vec![LayerKind::SelfAttention, LayerKind::Cross],
         head_hidden: vec![16],
+        line_head_hidden: None,
         dropout: 0.1,
         reliability_beta: 100.0,
         point_input_scale: 1.0,
