@@ -117,17 +117,13 @@ impl ModelConfig {
         if self.ffn_dim == 0 {
             return bad("ffn_dim must be positive".into());
         }
-        if self.head_hidden.contains(&0) {
-            return bad(format!(
-                "head_hidden widths must be positive, got {:?}",
-                self.head_hidden
-            ));
-        }
-        if self.line_head_widths().contains(&0) {
-            return bad(format!(
-                "line_head_hidden widths must be positive, got {:?}",
-                self.line_head_widths()
-            ));
+        for (name, widths) in [
+            ("head_hidden", &self.head_hidden[..]),
+            ("line_head_hidden", self.line_head_widths()),
+        ] {
+            if widths.contains(&0) {
+                return bad(format!("{name} widths must be positive, got {widths:?}"));
+            }
         }
         if !(0.0..1.0).contains(&self.dropout) {
             return bad(format!("dropout must be in [0, 1), got {}", self.dropout));

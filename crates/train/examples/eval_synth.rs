@@ -45,7 +45,6 @@ fn predict_chunked(
     let n = f.num_keypoints();
     let groups = n.div_ceil(chunk.max(1)).max(1);
     let max_lines = predictor.config().limits.max_lines;
-    let (d, t) = (f.dim, f.samples_per_line);
     let mut points = Vec::with_capacity(n);
     for g in 0..groups {
         let ki: Vec<usize> = (g..n).step_by(groups).collect();
@@ -57,19 +56,15 @@ fn predict_chunked(
             keypoints: ki.iter().map(|&i| f.keypoints[i]).collect(),
             descriptors: ki
                 .iter()
-                .flat_map(|&i| f.descriptors[i * d..(i + 1) * d].iter().copied())
+                .flat_map(|&i| f.descriptor(i).iter().copied())
                 .collect(),
             segments: li.iter().map(|&i| f.segments[i]).collect(),
             line_descriptors: li
                 .iter()
-                .flat_map(|&i| {
-                    f.line_descriptors[i * t * d..(i + 1) * t * d]
-                        .iter()
-                        .copied()
-                })
+                .flat_map(|&i| f.line_descriptor(i).iter().copied())
                 .collect(),
-            samples_per_line: t,
-            dim: d,
+            samples_per_line: f.samples_per_line,
+            dim: f.dim,
         };
         points.extend(predictor.predict_features(&part)?.points);
     }
