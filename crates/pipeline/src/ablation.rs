@@ -50,18 +50,17 @@ pub fn run_ablation(p: &Pipeline, options: &RunOptions) -> Result<Ablation> {
     let refined = run(p, options)?;
     let without = p.without_refine();
     let imported = run(&without, options)?;
-    let read = |q: &Pipeline| {
-        let path = q.stage_dir("score").join(score::run::SUMMARY_JSON_FILE);
-        Summary::read_json(&path).map_err(|e| PipelineError::Stage {
+    let read = |r: &RunReport, q: &Pipeline| {
+        r.score.clone().ok_or_else(|| PipelineError::Stage {
             stage: "score",
-            message: e.to_string(),
+            message: format!("no score summary in {}", q.stage_dir("score").display()),
         })
     };
     Ok(Ablation {
+        refined_score: read(&refined, p)?,
+        imported_score: read(&imported, &without)?,
         refined,
         imported,
-        refined_score: read(p)?,
-        imported_score: read(&without)?,
     })
 }
 

@@ -47,6 +47,8 @@ pub struct RunOptions {
 #[derive(Clone, Debug)]
 pub struct RunReport {
     pub stages: Vec<StageReport>,
+    /// The score stage's summary (both variants) when that stage ran or was up to date.
+    pub score: Option<score::Summary>,
 }
 
 impl RunReport {
@@ -237,5 +239,12 @@ pub fn run(p: &Pipeline, options: &RunOptions) -> Result<RunReport> {
             note,
         });
     }
-    Ok(RunReport { stages })
+    let score = match stages.iter().find(|r| r.stage == "score").map(|r| &r.status) {
+        Some(Status::Ran | Status::Skipped) => {
+            let path = p.stage_dir("score").join(score::run::SUMMARY_JSON_FILE);
+            Some(score::Summary::read_json(&path).map_err(|e| stage_err("score")(&e))?)
+        }
+        _ => None,
+    };
+    Ok(RunReport { stages, score })
 }

@@ -43,6 +43,7 @@ fn reruns_only_what_a_change_affects_and_tampering_is_named() {
     let stages = ["synth", "ingest", "import", "refine", "shard"];
 
     let first = run(&p, &quiet()).unwrap();
+    assert!(first.score.is_none(), "--until shard has no score");
     assert_eq!(
         statuses(&first),
         stages.map(|s| (s, Status::Ran)).to_vec(),
@@ -163,12 +164,21 @@ fn train_and_score_run_once_then_skip() {
     );
     assert!(p.work.join("train/model.ckpt").is_file());
     assert!(p.work.join("score/summary.md").is_file());
+    // The report carries the score stage's summary (what `pl2map run` prints): both
+    // variants, the rows of the summary file the stage wrote.
+    let written = std::fs::read_to_string(p.work.join("score/summary.md")).unwrap();
+    let score = first.score.as_ref().expect("a run through score has its summary");
+    let labels: Vec<&str> = score.variants.iter().map(|v| v.variant.label()).collect();
+    assert_eq!(labels, ["points", "points + lines"]);
+    assert!(written.contains(&score.table()), "{}", score.table());
     let second = run(&p, &all).unwrap();
     assert!(
         second.stages.iter().all(|s| s.status == Status::Skipped),
         "{}",
         second.table()
     );
+    // Up to date: the same summary, read back from the stage's record.
+    assert_eq!(second.score.as_ref().map(|s| s.table()), Some(score.table()));
     let bad = run(
         &p,
         &RunOptions {

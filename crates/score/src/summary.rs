@@ -173,11 +173,21 @@ impl Summary {
             "- RANSAC: point threshold {} px, line threshold {} px, seed {}\n\n",
             self.point_threshold_px, self.line_threshold_px, self.seed
         ));
-        s.push_str(&format!(
+        s.push_str(&self.table());
+        s.push_str(
+            "\nAccuracy: fraction of frames strictly under both thresholds; frames without a \
+             pose count as failures. Inliers: medians over frames.\n",
+        );
+        s
+    }
+
+    /// The markdown table alone: one row per variant, with the median inlier counts.
+    pub fn table(&self) -> String {
+        let mut s = format!(
             "|{} inliers (pts / lines) |\n|{}---:|\n",
             header_cells(),
             align_cells()
-        ));
+        );
         for v in &self.variants {
             s.push_str(&format!(
                 "|{} {} / {} |\n",
@@ -186,10 +196,6 @@ impl Summary {
                 fmt_count(v.median_line_inliers)
             ));
         }
-        s.push_str(
-            "\nAccuracy: fraction of frames strictly under both thresholds; frames without a \
-             pose count as failures. Inliers: medians over frames.\n",
-        );
         s
     }
 

@@ -81,6 +81,14 @@ pub fn run(args: Args, quiet: bool) -> anyhow::Result<()> {
     }
     let report = pipeline::run(&p, &options).with_context(context)?;
     print!("{}", report.table());
+    if let Some(summary) = &report.score {
+        println!(
+            "\nscore on the {} frames ({}):\n",
+            summary.split,
+            p.stage_dir("score").join(score::run::SUMMARY_MD_FILE).display()
+        );
+        print!("{}", summary.table());
+    }
     Ok(())
 }
 
