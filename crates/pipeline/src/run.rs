@@ -239,7 +239,11 @@ pub fn run(p: &Pipeline, options: &RunOptions) -> Result<RunReport> {
             note,
         });
     }
-    let score = match stages.iter().find(|r| r.stage == "score").map(|r| &r.status) {
+    let score = match stages
+        .iter()
+        .find(|r| r.stage == "score")
+        .map(|r| &r.status)
+    {
         Some(Status::Ran | Status::Skipped) => {
             let path = p.stage_dir("score").join(score::run::SUMMARY_JSON_FILE);
             Some(score::Summary::read_json(&path).map_err(|e| stage_err("score")(&e))?)

@@ -167,7 +167,10 @@ fn train_and_score_run_once_then_skip() {
     // The report carries the score stage's summary (what `pl2map run` prints): both
     // variants, the rows of the summary file the stage wrote.
     let written = std::fs::read_to_string(p.work.join("score/summary.md")).unwrap();
-    let score = first.score.as_ref().expect("a run through score has its summary");
+    let score = first
+        .score
+        .as_ref()
+        .expect("a run through score has its summary");
     let labels: Vec<&str> = score.variants.iter().map(|v| v.variant.label()).collect();
     assert_eq!(labels, ["points", "points + lines"]);
     assert!(written.contains(&score.table()), "{}", score.table());
@@ -178,7 +181,10 @@ fn train_and_score_run_once_then_skip() {
         second.table()
     );
     // Up to date: the same summary, read back from the stage's record.
-    assert_eq!(second.score.as_ref().map(|s| s.table()), Some(score.table()));
+    assert_eq!(
+        second.score.as_ref().map(|s| s.table()),
+        Some(score.table())
+    );
     let bad = run(
         &p,
         &RunOptions {

@@ -85,7 +85,9 @@ pub fn run(args: Args, quiet: bool) -> anyhow::Result<()> {
         println!(
             "\nscore on the {} frames ({}):\n",
             summary.split,
-            p.stage_dir("score").join(score::run::SUMMARY_MD_FILE).display()
+            p.stage_dir("score")
+                .join(score::run::SUMMARY_MD_FILE)
+                .display()
         );
         print!("{}", summary.table());
     }
