@@ -107,6 +107,8 @@ pub fn run(p: &Pipeline, options: &RunOptions) -> Result<RunReport> {
     };
     let frames = p.frames_path();
     let mut stages = Vec::new();
+    // The score stage's summary, when it ran or was up to date.
+    let mut score_summary = None;
     for (i, &stage) in STAGES.iter().enumerate() {
         let dir = p.stage_dir(stage);
         let t = Instant::now();
@@ -216,8 +218,10 @@ pub fn run(p: &Pipeline, options: &RunOptions) -> Result<RunReport> {
                 "score" => match &p.file.score {
                     Some(s) => {
                         let model = p.stage_dir("train").join(train::checkpoint::MODEL_FILE);
-                        let (skipped, note) =
+                        let (skipped, summary) =
                             train_stage::score(s, &p.stage_dir("shard"), &model, &dir)?;
+                        let note = train_stage::summary_line(&summary);
+                        score_summary = Some(summary);
                         (status(skipped), note)
                     }
                     None => (Status::Off("no [score]".into()), String::new()),
@@ -239,16 +243,8 @@ pub fn run(p: &Pipeline, options: &RunOptions) -> Result<RunReport> {
             note,
         });
     }
-    let score = match stages
-        .iter()
-        .find(|r| r.stage == "score")
-        .map(|r| &r.status)
-    {
-        Some(Status::Ran | Status::Skipped) => {
-            let path = p.stage_dir("score").join(score::run::SUMMARY_JSON_FILE);
-            Some(score::Summary::read_json(&path).map_err(|e| stage_err("score")(&e))?)
-        }
-        _ => None,
-    };
-    Ok(RunReport { stages, score })
+    Ok(RunReport {
+        stages,
+        score: score_summary,
+    })
 }

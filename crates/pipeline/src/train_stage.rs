@@ -223,24 +223,25 @@ pub fn score(
     shard_dir: &Path,
     model: &Path,
     dir: &Path,
-) -> Result<(bool, String)> {
+) -> Result<(bool, score::Summary)> {
     let config = section.config();
     let (_, mut inputs) = split_shards(shard_dir, Split::Test)?;
     inputs.insert("model".into(), stage::sha256_file(model)?);
     let config_hash = stage::hash_config(&config)?;
-    let summary_path = dir.join(score::run::SUMMARY_MD_FILE);
     if up_to_date("score", dir, &config_hash, &inputs, &[])? {
-        return Ok((true, summary_line_from_file(&summary_path)));
+        let path = dir.join(score::run::SUMMARY_JSON_FILE);
+        let summary = score::Summary::read_json(&path).map_err(|e| stage_err("score")(&e))?;
+        return Ok((true, summary));
     }
     let mut localiser = score::NetworkLocaliser::load(model).map_err(|e| stage_err("score")(&e))?;
     let out =
         score::run(shard_dir, dir, &mut localiser, &config).map_err(|e| stage_err("score")(&e))?;
     record("score", dir, config_hash, inputs, &out.files)?;
-    Ok((false, summary_line(&out.summary)))
+    Ok((false, out.summary))
 }
 
 /// "points: median .. cm, x % under 5 cm / 5 deg; points + lines: ..." for the run table.
-fn summary_line(s: &score::Summary) -> String {
+pub(crate) fn summary_line(s: &score::Summary) -> String {
     s.variants
         .iter()
         .map(|v| {
@@ -258,17 +259,8 @@ fn summary_line(s: &score::Summary) -> String {
                     )
                 })
                 .unwrap_or_default();
-            let name = match v.variant {
-                score::Variant::Points => "points",
-                score::Variant::PointsLines => "points + lines",
-            };
-            format!("{name}: median {:.1} cm, {acc}", v.median_cm)
+            format!("{}: median {:.1} cm, {acc}", v.variant.label(), v.median_cm)
         })
         .collect::<Vec<_>>()
         .join("; ")
-}
-
-/// A skipped score stage points at its table (the summary type is not read back).
-fn summary_line_from_file(path: &Path) -> String {
-    format!("table in {}", path.display())
 }
