@@ -22,6 +22,7 @@ pub mod attention;
 pub mod backend;
 pub mod bench;
 pub mod config;
+pub mod denormals;
 pub mod dropout;
 pub mod error;
 pub mod graph;

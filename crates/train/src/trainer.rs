@@ -238,6 +238,10 @@ pub fn train_on<B: AutodiffBackend + Pl2MapBackend>(
         optimizer_hash: String::new(),
     };
     let mut killed = false;
+    // Steps run on threads that flush denormals (see model::denormals): up to 40 % faster
+    // on Intel cores once the optimiser's moments underflow.
+    let pool = model::denormals::flushing_pool()
+        .map_err(|e| TrainError::Config(format!("starting the training threads: {e}")))?;
     for i in start..config.iterations {
         if options.stop_after.is_some_and(|s| i >= s) {
             killed = true;
@@ -260,7 +264,7 @@ pub fn train_on<B: AutodiffBackend + Pl2MapBackend>(
             learning_rate: lr,
             dropout_seed: seeds::derive(config.seed, Purpose::Dropout, i),
         };
-        let report = state.step_batch(&samples, &step)?;
+        let report = pool.install(|| state.step_batch(&samples, &step))?;
         if !report.updated {
             skipped += 1;
         }
