@@ -7,7 +7,7 @@
 //! Linear / Conv1d(kernel 1) layers, U(-1/sqrt(fan_in), 1/sqrt(fan_in)) for weights and
 //! biases, as in the reference implementation.
 
-use burn::module::Param;
+use burn::module::{ModuleMapper, Param, ParamId};
 use burn::nn::{LayerNorm, LayerNormConfig, Linear};
 use burn::tensor::{Tensor, TensorData, backend::Backend};
 use rand::{Rng, SeedableRng};
@@ -89,4 +89,23 @@ pub(crate) fn tensor_from<B: Backend, const K: usize>(
     device: &B::Device,
 ) -> Tensor<B, K> {
     Tensor::from_data(TensorData::new(values, shape), device)
+}
+
+/// Renumbers a module's parameters 1, 2, 3 ... in visiting order.
+///
+/// Why: burn gives every parameter a random id, which its records store (and Adam keys
+/// its state by), so two runs of the same seed wrote different checkpoint bytes. With ids
+/// that follow from the network's structure a seeded run's files are reproducible; a
+/// checkpoint stores them, so a loaded network keeps its ids.
+#[derive(Default)]
+pub(crate) struct SequentialIds {
+    next: u64,
+}
+
+impl<B: Backend> ModuleMapper<B> for SequentialIds {
+    fn map_float<const D: usize>(&mut self, param: Param<Tensor<B, D>>) -> Param<Tensor<B, D>> {
+        self.next += 1;
+        let (_, tensor, mapper) = param.consume();
+        Param::from_mapped_value(ParamId::from(self.next), tensor, mapper)
+    }
 }

@@ -62,13 +62,14 @@ impl ModelConfig {
         };
         let point_head = Mlp::new(&mut init, &widths(&self.head_hidden, POINT_OUTPUTS));
         let line_head = Mlp::new(&mut init, &widths(self.line_head_widths(), LINE_OUTPUTS));
-        Ok(Pl2Map {
+        let model = Pl2Map {
             line_encoder,
             graph,
             point_head,
             line_head,
             config: self.clone(),
-        })
+        };
+        Ok(model.map(&mut crate::init::SequentialIds::default()))
     }
 }
 

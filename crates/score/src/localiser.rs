@@ -101,6 +101,17 @@ pub trait Localiser {
     /// Correspondences of one frame. An error stops the run: it means the localiser
     /// cannot work (unreadable image, broken model), not that the frame is hard.
     fn correspond(&mut self, frame: &TestFrame) -> Result<Correspondences, ScoreError>;
+
+    /// Correspondences of several frames, in their order; the first error (in frame
+    /// order) stops the run. The default corresponds one frame after the other; a
+    /// localiser with per-frame work that can run side by side (the network's
+    /// front-end) overrides it, with the same results.
+    fn correspond_many(
+        &mut self,
+        frames: &[TestFrame],
+    ) -> Result<Vec<Correspondences>, ScoreError> {
+        frames.iter().map(|f| self.correspond(f)).collect()
+    }
 }
 
 pub(crate) fn split_name(s: Split) -> &'static str {

@@ -57,27 +57,70 @@ impl Localiser for NetworkLocaliser {
     }
 
     fn correspond(&mut self, frame: &TestFrame) -> Result<Correspondences, ScoreError> {
-        let t = Instant::now();
-        let gray = frame.gray_image()?;
-        let decode_ms = ms_since(t);
-        let cam = frame.camera();
-        if (u64::from(gray.width()), u64::from(gray.height())) != (cam.width, cam.height) {
-            return Err(Self::frame_err(
-                frame,
-                format!(
-                    "image is {}x{} but the camera says {}x{}",
-                    gray.width(),
-                    gray.height(),
-                    cam.width,
-                    cam.height
-                ),
-            ));
-        }
-        // Front-end and network timed apart: `Predictor::predict` is exactly these two.
-        let t = Instant::now();
-        let features = features::extract(&gray, self.predictor.front_end())
-            .map_err(|e| Self::frame_err(frame, format!("front-end: {e}")))?;
-        let front_end_ms = ms_since(t);
+        let front = front_end(self.predictor.front_end(), frame)?;
+        self.finish(frame, front)
+    }
+
+    /// The front-ends of all frames side by side on the rayon pool (each is one
+    /// single-threaded OpenCV call chain), then the network frame by frame.
+    fn correspond_many(
+        &mut self,
+        frames: &[TestFrame],
+    ) -> Result<Vec<Correspondences>, ScoreError> {
+        use rayon::prelude::*;
+        let fe = self.predictor.front_end().clone();
+        let fronts: Vec<Result<FrontEnd, ScoreError>> =
+            frames.par_iter().map(|f| front_end(&fe, f)).collect();
+        frames
+            .iter()
+            .zip(fronts)
+            .map(|(f, front)| self.finish(f, front?))
+            .collect()
+    }
+}
+
+/// A frame's detected and described features, with what they took.
+struct FrontEnd {
+    features: features::ImageFeatures,
+    decode_ms: f64,
+    front_end_ms: f64,
+}
+
+fn front_end(fe: &features::FrontEndConfig, frame: &TestFrame) -> Result<FrontEnd, ScoreError> {
+    let t = Instant::now();
+    let gray = frame.gray_image()?;
+    let decode_ms = ms_since(t);
+    let cam = frame.camera();
+    if (u64::from(gray.width()), u64::from(gray.height())) != (cam.width, cam.height) {
+        return Err(NetworkLocaliser::frame_err(
+            frame,
+            format!(
+                "image is {}x{} but the camera says {}x{}",
+                gray.width(),
+                gray.height(),
+                cam.width,
+                cam.height
+            ),
+        ));
+    }
+    // Front-end and network timed apart: `Predictor::predict` is exactly these two.
+    let t = Instant::now();
+    let features = features::extract(&gray, fe)
+        .map_err(|e| NetworkLocaliser::frame_err(frame, format!("front-end: {e}")))?;
+    Ok(FrontEnd {
+        features,
+        decode_ms,
+        front_end_ms: ms_since(t),
+    })
+}
+
+impl NetworkLocaliser {
+    fn finish(&self, frame: &TestFrame, front: FrontEnd) -> Result<Correspondences, ScoreError> {
+        let FrontEnd {
+            features,
+            decode_ms,
+            front_end_ms,
+        } = front;
         let t = Instant::now();
         let pred = self
             .predictor
@@ -193,6 +236,35 @@ mod tests {
         assert_eq!(steps, vec!["decode", "front_end", "network"]);
         assert!(loc.describe().contains("tiny"));
         assert_eq!(loc.split(), Split::Test);
+    }
+
+    /// Front-ends side by side give what frame by frame gives, in frame order, and the
+    /// first bad frame (in order) is the error reported.
+    #[test]
+    fn many_frames_at_once_equal_one_by_one() {
+        let mut loc = localiser();
+        let frames = vec![
+            frame(160, 120, 160),
+            frame(120, 160, 120),
+            frame(160, 120, 160),
+        ];
+        let many = loc.correspond_many(&frames).unwrap();
+        assert_eq!(many.len(), 3);
+        for (f, m) in frames.iter().zip(&many) {
+            let one = loc.correspond(f).unwrap();
+            assert_eq!((&m.points, &m.lines), (&one.points, &one.lines));
+        }
+        assert_ne!(
+            many[0].points, many[1].points,
+            "different images, different output"
+        );
+        let bad = vec![
+            frame(160, 120, 160),
+            frame(160, 120, 320),
+            frame(160, 120, 200),
+        ];
+        let e = loc.correspond_many(&bad).unwrap_err().to_string();
+        assert!(e.contains("320x120"), "{e}");
     }
 
     #[test]

@@ -85,28 +85,42 @@ pub fn run(
     let bar = stage::progress_bar(reader.frame_count() as u64, "score");
     let mut results = Vec::with_capacity(reader.frame_count());
     let mut reader = reader;
+    // A few frames per round, so a localiser can run their front-ends side by side
+    // (`Localiser::correspond_many`); results are the same as frame by frame.
+    let round = 2 * rayon::current_num_threads().max(1);
+    let mut frames = Vec::with_capacity(round);
+    let mut read_ms = Vec::with_capacity(round);
     loop {
-        let t = Instant::now();
-        let Some(record) = reader.next() else { break };
-        let record = record.map_err(shard_err)?;
-        let read_ms = t.elapsed().as_secs_f64() * 1e3;
-        if record.split != split {
-            return Err(ScoreError::WrongSplit {
-                frame_id: record.frame_id,
-                name: record.name,
-                found: split_name(record.split),
-                expected: split_name(split),
-            });
+        frames.clear();
+        read_ms.clear();
+        while frames.len() < round {
+            let t = Instant::now();
+            let Some(record) = reader.next() else { break };
+            let record = record.map_err(shard_err)?;
+            read_ms.push(t.elapsed().as_secs_f64() * 1e3);
+            if record.split != split {
+                return Err(ScoreError::WrongSplit {
+                    frame_id: record.frame_id,
+                    name: record.name,
+                    found: split_name(record.split),
+                    expected: split_name(split),
+                });
+            }
+            frames.push(TestFrame { record });
         }
-        let frame = TestFrame { record };
-        let corr = localiser.correspond(&frame)?;
-        let mut timings = vec![Timing {
-            step: "read".into(),
-            ms: read_ms,
-        }];
-        timings.extend(corr.timings.iter().cloned());
-        results.push(score_frame(&frame, &corr, config, timings));
-        bar.inc(1);
+        if frames.is_empty() {
+            break;
+        }
+        let corrs = localiser.correspond_many(&frames)?;
+        for ((frame, corr), read_ms) in frames.iter().zip(&corrs).zip(&read_ms) {
+            let mut timings = vec![Timing {
+                step: "read".into(),
+                ms: *read_ms,
+            }];
+            timings.extend(corr.timings.iter().cloned());
+            results.push(score_frame(frame, corr, config, timings));
+            bar.inc(1);
+        }
     }
     bar.finish_and_clear();
 

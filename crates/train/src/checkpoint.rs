@@ -11,14 +11,17 @@
 
 use crate::config::TrainConfig;
 use crate::error::{TrainError, io_err};
-use model::burn::module::{Module, ModuleVisitor, Param};
+use model::burn::module::{Module, ModuleVisitor, Param, ParamId};
 use model::burn::optim::Optimizer;
-use model::burn::record::{FullPrecisionSettings, NamedMpkBytesRecorder, Recorder};
+use model::burn::record::{
+    FullPrecisionSettings, NamedMpkBytesRecorder, PrecisionSettings, Record, Recorder,
+};
 use model::burn::tensor::Tensor;
 use model::burn::tensor::backend::{AutodiffBackend, Backend};
 use model::step::Pl2MapOptimizer;
 use model::{Pl2Map, Pl2MapBackend, adam_config};
 use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
@@ -76,8 +79,9 @@ fn ck_err(path: &Path, reason: impl Into<String>) -> TrainError {
 }
 
 /// Every float parameter of a network as little-endian f32 bytes, in module order: what
-/// "byte-identical weights" means (the burn record also holds parameter ids, which are
-/// drawn afresh for every network built).
+/// "byte-identical weights" means. (The burn record also holds parameter ids: a network
+/// built by `ModelConfig::init` numbers them in module order, so a seeded run's
+/// checkpoint files are byte-identical too; a network loaded from a file keeps its ids.)
 pub fn parameter_bytes<B: Backend>(model: &Pl2Map<B>) -> Vec<u8> {
     struct Collect(Vec<u8>);
     impl<B: Backend> ModuleVisitor<B> for Collect {
@@ -91,6 +95,32 @@ pub fn parameter_bytes<B: Backend>(model: &Pl2Map<B>) -> Vec<u8> {
     let mut c = Collect(Vec::new());
     model.visit(&mut c);
     c.0
+}
+
+/// Adam's state by parameter id, serialised in id order. burn's own record is a
+/// `HashMap`, written in a per-process random order, so the same state gave different
+/// bytes on every save. The wire format (a MessagePack map from id to state) is the
+/// same, so files written before this still load.
+/// (Held as pairs: burn's map is its own `hashbrown` one.)
+struct OrderedById<T>(Vec<(ParamId, T)>);
+
+impl<B: Backend, T: Record<B>> Record<B> for OrderedById<T> {
+    type Item<S: PrecisionSettings> = BTreeMap<String, T::Item<S>>;
+
+    fn into_item<S: PrecisionSettings>(self) -> Self::Item<S> {
+        self.0
+            .into_iter()
+            .map(|(id, r)| (id.serialize(), r.into_item()))
+            .collect()
+    }
+
+    fn from_item<S: PrecisionSettings>(item: Self::Item<S>, device: &B::Device) -> Self {
+        OrderedById(
+            item.into_iter()
+                .map(|(id, i)| (ParamId::deserialize(&id), T::from_item(i, device)))
+                .collect(),
+        )
+    }
 }
 
 /// The serialised record of a network's weights.
@@ -112,8 +142,12 @@ pub fn save<B: AutodiffBackend + Pl2MapBackend>(
 ) -> Result<(), TrainError> {
     let weights = weight_bytes(model).map_err(|_| ck_err(path, "serialising the weights"))?;
     let optim = match optimizer {
-        Some(o) => Recorder::<B>::record(&Rec::default(), o.to_record(), ())
-            .map_err(|e| ck_err(path, format!("serialising the optimiser: {e}")))?,
+        Some(o) => Recorder::<B>::record(
+            &Rec::default(),
+            OrderedById(o.to_record().into_iter().collect()),
+            (),
+        )
+        .map_err(|e| ck_err(path, format!("serialising the optimiser: {e}")))?,
         None => Vec::new(),
     };
     let header = CheckpointHeader {
@@ -228,9 +262,14 @@ impl CheckpointFile {
         if !self.header.has_optimizer {
             return Ok(None);
         }
-        let record = Recorder::<B>::load(&Rec::default(), self.optimizer.clone(), device)
-            .map_err(|e| ck_err(&self.path, format!("optimiser state: {e}")))?;
-        Ok(Some(adam_config().init().load_record(record)))
+        let record: OrderedById<_> =
+            Recorder::<B>::load(&Rec::default(), self.optimizer.clone(), device)
+                .map_err(|e| ck_err(&self.path, format!("optimiser state: {e}")))?;
+        Ok(Some(
+            adam_config()
+                .init()
+                .load_record(record.0.into_iter().collect()),
+        ))
     }
 }
 

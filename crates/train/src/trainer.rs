@@ -391,7 +391,7 @@ mod tests {
     }
 
     /// A run stopped after 5 iterations (last checkpoint at 3) and resumed ends with
-    /// byte-identical weights to an uninterrupted run, and its metrics table lists every
+    /// byte-identical weights (and files) to an uninterrupted run, and its metrics table lists every
     /// iteration once with the same losses.
     #[test]
     fn resumed_run_matches_an_uninterrupted_one() {
@@ -450,6 +450,12 @@ mod tests {
         assert!(resumed.finished);
         let wa = model_parameter_bytes(&a.join(MODEL_FILE)).unwrap();
         assert_eq!(wa, model_parameter_bytes(&b.join(MODEL_FILE)).unwrap());
+        // The files too, Adam's state included: parameter ids follow the network's
+        // structure and the optimiser record is written in id order.
+        for file in [MODEL_FILE, CHECKPOINT_FILE] {
+            let read = |dir: &Path| std::fs::read(dir.join(file)).unwrap();
+            assert!(read(&a) == read(&b), "{file} differs between the two runs");
+        }
         // Training changed the weights (the comparison is not vacuous).
         let init = cfg
             .model
