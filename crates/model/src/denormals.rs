@@ -27,7 +27,7 @@ pub fn flushing_pool() -> Result<rayon::ThreadPool, rayon::ThreadPoolBuildError>
 /// Sets FTZ and DAZ in this thread's SSE/AVX control register (x86-64). Other
 /// architectures keep their default (IEEE gradual underflow): aarch64 cores handle
 /// denormals at full speed.
-pub fn flush_denormals_on_this_thread() {
+fn flush_denormals_on_this_thread() {
     #[cfg(target_arch = "x86_64")]
     {
         // MXCSR bit 15 = flush to zero, bit 6 = denormals are zero.

@@ -68,9 +68,9 @@ impl Localiser for NetworkLocaliser {
         frames: &[TestFrame],
     ) -> Result<Vec<Correspondences>, ScoreError> {
         use rayon::prelude::*;
-        let fe = self.predictor.front_end().clone();
+        let fe = self.predictor.front_end();
         let fronts: Vec<Result<FrontEnd, ScoreError>> =
-            frames.par_iter().map(|f| front_end(&fe, f)).collect();
+            frames.par_iter().map(|f| front_end(fe, f)).collect();
         frames
             .iter()
             .zip(fronts)
