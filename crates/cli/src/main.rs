@@ -3,7 +3,7 @@
 
 mod commands;
 
-use clap::{Parser, Subcommand};
+use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 
 #[derive(Parser)]
 #[command(
@@ -55,17 +55,27 @@ enum Command {
 }
 
 fn main() -> std::process::ExitCode {
-    let cli = Cli::parse();
+    let matches = Cli::command().get_matches();
+    let cli = match Cli::from_arg_matches(&matches) {
+        Ok(cli) => cli,
+        Err(e) => e.exit(),
+    };
+    // The subcommand's own matches: `pl2map train` tells the flags given on the
+    // command line from their defaults.
+    let sub = matches
+        .subcommand()
+        .map(|(_, m)| m.clone())
+        .unwrap_or_default();
     commands::init_logging(cli.quiet);
     let result = match cli.command {
         Command::Colmap(c) => commands::colmap::run(c),
         Command::Limap(c) => commands::limap::run(c),
-        Command::Synth(a) => commands::synth::run(a),
+        Command::Synth(a) => commands::synth::run(a, cli.quiet),
         Command::Ingest(a) => commands::ingest::run(a),
         Command::Import(a) => commands::import::run(a),
         Command::Refine(a) => commands::refine::run(a),
         Command::Shard(a) => commands::shard::run(a),
-        Command::Train(a) => commands::train::run(a, cli.quiet),
+        Command::Train(a) => commands::train::run(a, &sub, cli.quiet),
         Command::Score(a) => commands::score::run(a),
         Command::Run(a) => commands::run::run(a, cli.quiet),
         Command::Lock(a) => commands::verify::lock(a, cli.quiet),

@@ -1,7 +1,7 @@
-//! Datasets of pl2map-rs: the procedural synthetic room ([`synth`]) that serves as the
-//! embedded default data of the demo and the tests, written in the 7-Scenes or the
-//! Cambridge Landmarks layout.
+//! Dataset adapters of pl2map-rs: the ingest stage ([`ingest`]) reads Microsoft 7-Scenes
+//! and Cambridge Landmarks in their published layouts (and the built-in synthetic scene,
+//! which the `synth` crate writes in either layout) into the frames table
+//! (`tables::frames`). Each adapter converts its dataset's conventions once: poses become
+//! world-to-camera, cameras COLMAP models, names dataset-relative paths.
 
-pub mod frames;
 pub mod ingest;
-pub mod synth;

@@ -2,11 +2,11 @@
 
 mod ingest_common;
 
-use datasets::frames::Split;
 use datasets::ingest::{self, DatasetKind, DepthOption, IngestConfig, IngestError};
 use geometry::{CameraModel, Pose, UnitQuaternion, Vector3};
 use ingest_common::*;
 use std::path::{Path, PathBuf};
+use tables::frames::Split;
 
 fn fixture() -> (tempfile::TempDir, PathBuf) {
     let dir = tempfile::tempdir().unwrap();

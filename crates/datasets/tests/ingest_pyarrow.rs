@@ -3,10 +3,10 @@
 
 mod ingest_common;
 
-use datasets::frames::{FramesTable, META_KEY};
 use datasets::ingest::{self, DatasetKind, DepthOption, IngestConfig};
 use ingest_common::*;
 use std::process::Command;
+use tables::frames::{FramesTable, META_KEY};
 
 const SCRIPT: &str = r#"
 import json, sys
@@ -68,7 +68,7 @@ fn pyarrow_reads_the_frames_table() {
     let mut c = IngestConfig::new(DatasetKind::SevenScenes, &scene);
     c.camera = Some("SIMPLE_RADIAL 16 12 10.25 8 6 -0.0123".into());
     c.depth = DepthOption::Raw;
-    let out = ingest::run(&c, &dir.path().join("out")).unwrap();
+    let out = ingest::run(&c, &dir.path().join("out")).unwrap().output;
     let res = Command::new(&python)
         .args(["-c", SCRIPT])
         .arg(&out.frames_path)

@@ -3,7 +3,6 @@
 
 mod ingest_common;
 
-use datasets::frames::{FramesTable, Split};
 use datasets::ingest::{
     self, DatasetKind, DepthOption, IngestConfig, IngestError, PoseOption, depth, sevenscenes,
 };
@@ -11,6 +10,7 @@ use geometry::{GeometryError, Pose};
 use ingest_common::*;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
+use tables::frames::{FramesTable, Split};
 
 // ---------------------------------------------------------------------------------------
 // The real sample against kapture-reference/.
@@ -182,7 +182,7 @@ fn sample_table_rows_and_registered_depth() {
     config.depth = DepthOption::Raw;
     let result = ingest::run(&config, out.path()).unwrap();
     assert!(!result.skipped);
-    let t = &result.table;
+    let t = &result.output.table;
     assert_eq!((t.count(Split::Train), t.count(Split::Test)), (6, 6));
     let names: Vec<&str> = t.frames.iter().map(|f| f.name.as_str()).collect();
     assert_eq!(names[0], "seq-02/frame-000000.color.jpg");
@@ -226,7 +226,7 @@ fn sample_table_rows_and_registered_depth() {
     assert_eq!(t.meta.dataset, "7scenes");
     assert_eq!(t.meta.scene, "stairs");
     // The table on disk is the one returned.
-    let back = FramesTable::read_parquet(&result.frames_path).unwrap();
+    let back = FramesTable::read_parquet(&result.output.frames_path).unwrap();
     assert_eq!(&back, t);
 }
 
@@ -570,7 +570,7 @@ fn sample_calibrated_depth_points_land_consistently() {
     let mut config = IngestConfig::new(DatasetKind::SevenScenes, &scene);
     config.depth = DepthOption::Raw;
     config.poses = PoseOption::Calibrated;
-    let t = ingest::run(&config, out.path()).unwrap().table;
+    let t = ingest::run(&config, out.path()).unwrap().output.table;
     let published =
         ingest::read_dataset(&IngestConfig::new(DatasetKind::SevenScenes, &scene), None).unwrap();
     let f = &t.frames[0];

@@ -3,10 +3,10 @@
 
 mod ingest_common;
 
-use datasets::frames::FramesTable;
 use datasets::ingest::{self, DatasetKind, DepthOption, IngestConfig, PoseOption};
 use ingest_common::*;
 use std::path::Path;
+use tables::frames::FramesTable;
 
 fn config(scene: &Path) -> IngestConfig {
     let mut c = IngestConfig::new(DatasetKind::SevenScenes, scene);
@@ -41,7 +41,7 @@ fn rerun_is_skipped_until_something_changes() {
 
     let second = ingest::run(&c, &out).unwrap();
     assert!(second.skipped);
-    assert_eq!(second.table, first.table);
+    assert_eq!(second.output.table, first.output.table);
 
     // Another configuration reruns.
     let mut c2 = c.clone();
@@ -54,7 +54,10 @@ fn rerun_is_skipped_until_something_changes() {
     std::fs::write(&pose, pose_txt(&fixture_pose(7).inverse().to_matrix())).unwrap();
     let third = ingest::run(&c2, &out).unwrap();
     assert!(!third.skipped);
-    assert_ne!(third.table.frames[0].pose, first.table.frames[0].pose);
+    assert_ne!(
+        third.output.table.frames[0].pose,
+        first.output.table.frames[0].pose
+    );
 
     // A modified or deleted output reruns, and restores it.
     let parquet = out.join("frames.parquet");
@@ -68,7 +71,7 @@ fn rerun_is_skipped_until_something_changes() {
     // Without depth, the registered depth of the earlier run is removed.
     let mut c3 = c2.clone();
     c3.depth = DepthOption::None;
-    let t = ingest::run(&c3, &out).unwrap().table;
+    let t = ingest::run(&c3, &out).unwrap().output.table;
     assert!(t.frames.iter().all(|f| f.depth_path.is_none()));
     assert!(!out.join("depth").exists());
     assert_eq!(record(&out)["outputs"].as_object().unwrap().len(), 1);

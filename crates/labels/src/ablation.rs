@@ -6,10 +6,10 @@
 //! track (the better of both orders: a label's endpoint order follows its 2D segment).
 
 use crate::stats::Spread;
-use crate::tables::LabelTables;
 use serde::Deserialize;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
+use tables::labels::LabelTables;
 use thiserror::Error;
 
 #[derive(Debug, Error)]

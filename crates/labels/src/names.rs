@@ -11,6 +11,7 @@ use serde::{Deserialize, Serialize};
 /// name must start with), prepend `add_prefix`, then replace the extension `from` by
 /// `to` (which the name must end with). The default is the identity.
 #[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct NameMapping {
     pub strip_prefix: Option<String>,
     pub add_prefix: Option<String>,
@@ -25,6 +26,42 @@ impl NameMapping {
 
     pub fn is_identity(&self) -> bool {
         self == &NameMapping::default()
+    }
+
+    /// The command-line form: `identity`, or comma-separated rules
+    /// `strip_prefix=P`, `add_prefix=P`, `replace_extension=FROM:TO`
+    /// (e.g. `add_prefix=seq-01/,replace_extension=.jpg:.png`).
+    pub fn parse_rules(text: &str) -> Result<NameMapping, String> {
+        let mut m = NameMapping::identity();
+        if text == "identity" || text.is_empty() {
+            return Ok(m);
+        }
+        for rule in text.split(',') {
+            let (key, value) = rule
+                .split_once('=')
+                .ok_or_else(|| format!("expected KEY=VALUE, got {rule:?}"))?;
+            match key {
+                "strip_prefix" => m.strip_prefix = Some(value.to_string()),
+                "add_prefix" => m.add_prefix = Some(value.to_string()),
+                "replace_extension" => {
+                    let (a, b) = value.split_once(':').ok_or_else(|| {
+                        format!(
+                            "replace_extension: expected FROM:TO (e.g. .jpg:.png), got {value:?}"
+                        )
+                    })?;
+                    if a.is_empty() {
+                        return Err("replace_extension: the extension to replace is empty".into());
+                    }
+                    m.replace_extension = Some((a.to_string(), b.to_string()));
+                }
+                _ => {
+                    return Err(format!(
+                        "unknown rule {key:?} (expected strip_prefix, add_prefix or replace_extension)"
+                    ));
+                }
+            }
+        }
+        Ok(m)
     }
 
     /// The dataset name of `source`, or why the mapping does not apply to it.
@@ -74,6 +111,21 @@ impl std::fmt::Display for NameMapping {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn command_line_rules() {
+        assert_eq!(
+            NameMapping::parse_rules("identity"),
+            Ok(NameMapping::identity())
+        );
+        let m = NameMapping::parse_rules(
+            "strip_prefix=a/,add_prefix=seq-01/,replace_extension=.jpg:.png",
+        )
+        .unwrap();
+        assert_eq!(m.apply("a/x.jpg").unwrap(), "seq-01/x.png");
+        assert!(NameMapping::parse_rules("prefix=a").is_err());
+        assert!(NameMapping::parse_rules("replace_extension=.jpg").is_err());
+    }
 
     #[test]
     fn identity_and_each_rule() {

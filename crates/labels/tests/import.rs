@@ -4,22 +4,20 @@
 mod common;
 
 use common::{Scene, SceneOptions, folder_bytes};
-use datasets::frames::Split;
 use geometry::{Vector2, Vector3};
 use labels::import::{self, ImportConfig};
 use labels::{LabelTables, NameMapping, PoseSource};
 use std::collections::HashMap;
+use tables::frames::Split;
 
-fn import(scene: &Scene, config: &ImportConfig, out: &str) -> (import::ImportOutput, LabelTables) {
+fn import(
+    scene: &Scene,
+    config: &ImportConfig,
+    out: &str,
+) -> (stage::Done<import::ImportOutput>, LabelTables) {
     let out = scene.out(out);
-    let o = import::run(
-        config,
-        &scene.frames_path,
-        &scene.model_dir,
-        &scene.limap_dir,
-        &out,
-    )
-    .unwrap_or_else(|e| panic!("{e}"));
+    let o = import::run(&scene.with_inputs(config), &scene.frames_path, &out)
+        .unwrap_or_else(|e| panic!("{e}"));
     (o, LabelTables::read(&out).unwrap())
 }
 
@@ -75,7 +73,7 @@ fn import_recovers_every_label_exactly() {
             }
         }
     }
-    let rep = &out.report;
+    let rep = &out.output.report;
     assert_eq!(rep.points.valid, expected_points);
     assert_eq!(rep.points.keypoints, t.points.len());
     assert_eq!(rep.points.without_point3d, 3 * train.len());
@@ -141,7 +139,7 @@ fn pose_disagreement_is_reported_and_the_pose_source_chosen() {
     scene.write_model();
 
     let (out, t) = import(&scene, &ImportConfig::default(), "sfm");
-    let d = &out.report.pose_disagreement;
+    let d = &out.output.report.pose_disagreement;
     assert!((d.translation_m.max - 0.03).abs() < 1e-9, "{:?}", d);
     assert!((d.rotation_deg.max - 0.5).abs() < 1e-9, "{:?}", d);
     assert!(d.translation_m.median < 1e-12);
@@ -178,10 +176,8 @@ fn explicit_name_mappings_join_renamed_models() {
     scene.write_limap();
     // The identity mapping refuses: no guessing.
     let e = import::run(
-        &ImportConfig::default(),
+        &scene.with_inputs(&ImportConfig::default()),
         &scene.frames_path,
-        &scene.model_dir,
-        &scene.limap_dir,
         &scene.out("identity"),
     )
     .unwrap_err();
@@ -200,10 +196,10 @@ fn explicit_name_mappings_join_renamed_models() {
     };
     let (out, t) = import(&scene, &config, "mapped");
     assert_eq!(t.poses.len(), scene.train_frames().len());
-    assert_eq!(out.report.points.valid, {
+    assert_eq!(out.output.report.points.valid, {
         let plain = Scene::build(&SceneOptions::default());
         let (o, _) = import(&plain, &ImportConfig::default(), "plain");
-        o.report.points.valid
+        o.output.report.points.valid
     });
 }
 
@@ -233,7 +229,7 @@ fn same_inputs_give_the_same_bytes_and_reruns_are_skipped() {
     // Rerun: skipped, same report.
     let (again, _) = import(&scene, &config, "a");
     assert!(again.skipped);
-    assert_eq!(again.report, a.report);
+    assert_eq!(again.output.report, a.output.report);
     // A changed configuration, a changed input or a damaged output reruns it.
     let other = ImportConfig {
         bounds_tolerance_px: 2.0,

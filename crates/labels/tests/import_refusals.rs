@@ -3,9 +3,9 @@
 mod common;
 
 use common::{Scene, SceneOptions};
-use datasets::frames::{Frame, Split};
 use labels::NameMapping;
 use labels::import::{self, ImportConfig, ImportError, ImportProblem};
+use tables::frames::{Frame, Split};
 
 fn scene() -> Scene {
     Scene::build(&SceneOptions::default())
@@ -13,14 +13,8 @@ fn scene() -> Scene {
 
 fn refuse(scene: &Scene, config: &ImportConfig) -> ImportError {
     let out = scene.out("labels");
-    let e = import::run(
-        config,
-        &scene.frames_path,
-        &scene.model_dir,
-        &scene.limap_dir,
-        &out,
-    )
-    .expect_err("the import must refuse this input");
+    let e = import::run(&scene.with_inputs(&config), &scene.frames_path, &out)
+        .expect_err("the import must refuse this input");
     // Nothing is written for refused input.
     assert!(!out.join("stage.json").exists());
     assert!(!out.join("points.parquet").exists());
@@ -244,15 +238,8 @@ fn refuses_test_images_in_the_model_unless_allowed() {
         allow_test_images: true,
         ..Default::default()
     };
-    let out = import::run(
-        &allowed,
-        &s.frames_path,
-        &s.model_dir,
-        &s.limap_dir,
-        &s.out("allowed"),
-    )
-    .unwrap();
-    assert_eq!(out.report.model.test_images_skipped, 1);
+    let out = import::run(&s.with_inputs(&allowed), &s.frames_path, &s.out("allowed")).unwrap();
+    assert_eq!(out.output.report.model.test_images_skipped, 1);
 }
 
 #[test]

@@ -20,10 +20,8 @@ fn noisy_scene() -> Scene {
 
 fn import(scene: &Scene) -> LabelTables {
     import::run(
-        &ImportConfig::default(),
+        &scene.with_inputs(&ImportConfig::default()),
         &scene.frames_path,
-        &scene.model_dir,
-        &scene.limap_dir,
         &scene.out("labels"),
     )
     .unwrap();
@@ -72,7 +70,7 @@ fn ablation(scene: &Scene, config: &RefineConfig, out: &str) -> Ablation {
     .unwrap();
     let after = LabelTables::read(&scene.out(out)).unwrap();
     assert_eq!(after.source, labels::LabelSource::DepthRefined);
-    let r = &o.report;
+    let r = &o.output.report;
     print!("{}", r.table());
     let a = Ablation {
         points: (
@@ -189,8 +187,8 @@ fn observations_without_valid_depth_lose_their_label() {
     for r in others {
         assert!(d3(&r.xyz.unwrap(), &gt) < 2e-3, "{:?} vs {gt:?}", r.xyz);
     }
-    assert!(o.report.points.dropped_no_depth >= 1);
-    assert_eq!(o.report.points.dropped_disagree, 0);
+    assert!(o.output.report.points.dropped_no_depth >= 1);
+    assert_eq!(o.output.report.points.dropped_disagree, 0);
 }
 
 #[test]
@@ -400,7 +398,7 @@ fn observations_that_disagree_with_the_others_are_rejected() {
         &scene.out("refined"),
     )
     .unwrap();
-    print!("{}", o.report.table());
+    print!("{}", o.output.report.table());
     let after = LabelTables::read(&scene.out("refined")).unwrap();
     let row = |f: u32, k: u32| {
         after
@@ -418,7 +416,7 @@ fn observations_that_disagree_with_the_others_are_rejected() {
     {
         assert!(d3(&r.xyz.unwrap(), &gt) < 2e-3);
     }
-    assert!(o.report.points.dropped_disagree >= 1);
+    assert!(o.output.report.points.dropped_disagree >= 1);
 
     let line = |f: u32, k: u32| {
         after
@@ -428,7 +426,7 @@ fn observations_that_disagree_with_the_others_are_rejected() {
             .unwrap()
     };
     assert_eq!(line(bad.frame_id, bad.seg_index).endpoints, None);
-    assert!(o.report.lines.dropped_fit >= 1);
+    assert!(o.output.report.lines.dropped_fit >= 1);
     let g = scene.gt_tracks[tid as usize];
     for r in &rows[1..] {
         let e = line(r.frame_id, r.seg_index).endpoints.unwrap();

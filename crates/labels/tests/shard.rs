@@ -4,12 +4,12 @@
 mod common;
 
 use common::{Scene, SceneOptions, folder_bytes};
-use datasets::frames::Split;
 use labels::LabelTables;
 use labels::import::{self, ImportConfig};
-use labels::shard::{self, ShardStageConfig, ShardStageError};
+use shards::shard_stage::{self, ShardStageConfig, ShardStageError};
 use shards::{Manifest, ShardReader};
 use std::collections::HashMap;
+use tables::frames::Split;
 
 fn scene_with_labels() -> Scene {
     let scene = Scene::build(&SceneOptions {
@@ -20,10 +20,8 @@ fn scene_with_labels() -> Scene {
         ..Default::default()
     });
     import::run(
-        &ImportConfig::default(),
+        &scene.with_inputs(&ImportConfig::default()),
         &scene.frames_path,
-        &scene.model_dir,
-        &scene.limap_dir,
         &scene.out("labels"),
     )
     .unwrap();
@@ -32,13 +30,17 @@ fn scene_with_labels() -> Scene {
 
 fn config(frames_per_shard: usize) -> ShardStageConfig {
     let mut c = ShardStageConfig::default();
-    c.shards.frames_per_shard = frames_per_shard;
+    c.frames_per_shard = frames_per_shard;
     c
 }
 
 /// The whole shard stage over the scene's imported labels into `out`.
-fn run_all(scene: &Scene, frames_per_shard: usize, out: &std::path::Path) -> shard::ShardOutput {
-    shard::run(
+fn run_all(
+    scene: &Scene,
+    frames_per_shard: usize,
+    out: &std::path::Path,
+) -> stage::Done<shard_stage::ShardOutput> {
+    shard_stage::run(
         &config(frames_per_shard),
         &scene.frames_path,
         &scene.out("labels"),
@@ -53,9 +55,9 @@ fn shards_hold_the_label_tables_and_the_test_frames() {
     let scene = scene_with_labels();
     let out = scene.out("shards");
     let o = run_all(&scene, 3, &out);
-    assert!(o.complete && !o.skipped);
-    let m = Manifest::load(out.join(shard::MANIFEST_FILE)).unwrap();
-    assert_eq!(m, o.manifest);
+    assert!(o.output.complete && !o.skipped);
+    let m = Manifest::load(out.join(shard_stage::MANIFEST_FILE)).unwrap();
+    assert_eq!(m, o.output.manifest);
     // 7 training frames in 3 shards, 3 test frames in 1.
     let files: Vec<&str> = m.shards.iter().map(|s| s.file.as_str()).collect();
     assert_eq!(
@@ -67,7 +69,7 @@ fn shards_hold_the_label_tables_and_the_test_frames() {
             "test-00000.mcap"
         ]
     );
-    assert_eq!(shard::shards_of_split(&m, Split::Test).len(), 1);
+    assert_eq!(shard_stage::shards_of_split(&m, Split::Test).len(), 1);
     assert!(m.is_complete());
     assert_eq!(m.planned_frames, 10);
     assert_eq!(m.inputs.len(), 4);
@@ -132,10 +134,10 @@ fn shards_hold_the_label_tables_and_the_test_frames() {
     // Rerun: skipped. Different frames per shard: a new plan, rewritten.
     let again = run_all(&scene, 3, &out);
     assert!(again.skipped);
-    assert_eq!(again.manifest, m);
+    assert_eq!(again.output.manifest, m);
     let other = run_all(&scene, 4, &out);
     assert!(!other.skipped);
-    assert_eq!(other.manifest.planned_shards, 3);
+    assert_eq!(other.output.manifest.planned_shards, 3);
 }
 
 #[test]
@@ -144,13 +146,13 @@ fn work_units_add_up_to_a_single_run() {
     let labels = scene.out("labels");
     let whole = scene.out("whole");
     let units = scene.out("units");
-    let full = shard::run(&config(2), &scene.frames_path, &labels, &whole, None).unwrap();
-    assert_eq!(full.manifest.planned_shards, 6);
-    let a = shard::run(&config(2), &scene.frames_path, &labels, &units, Some(3..6)).unwrap();
-    assert!(!a.complete);
-    assert!(!units.join(shard::MANIFEST_FILE).exists());
-    let b = shard::run(&config(2), &scene.frames_path, &labels, &units, Some(0..3)).unwrap();
-    assert!(b.complete);
+    let full = shard_stage::run(&config(2), &scene.frames_path, &labels, &whole, None).unwrap();
+    assert_eq!(full.output.manifest.planned_shards, 6);
+    let a = shard_stage::run(&config(2), &scene.frames_path, &labels, &units, Some(3..6)).unwrap();
+    assert!(!a.output.complete);
+    assert!(!units.join(shard_stage::MANIFEST_FILE).exists());
+    let b = shard_stage::run(&config(2), &scene.frames_path, &labels, &units, Some(0..3)).unwrap();
+    assert!(b.output.complete);
     // Same shard bytes, same manifest bytes, same stage record.
     let (w, u) = (folder_bytes(&whole), folder_bytes(&units));
     for (name, bytes) in &w {
@@ -158,10 +160,12 @@ fn work_units_add_up_to_a_single_run() {
     }
     assert!(u.contains_key("manifest.0-3.json") && u.contains_key("manifest.3-6.json"));
     // A unit rerun is skipped.
-    let again = shard::run(&config(2), &scene.frames_path, &labels, &units, Some(0..3)).unwrap();
-    assert!(again.skipped && again.complete);
+    let again =
+        shard_stage::run(&config(2), &scene.frames_path, &labels, &units, Some(0..3)).unwrap();
+    assert!(again.skipped && again.output.complete);
     // A range past the plan is refused.
-    let e = shard::run(&config(2), &scene.frames_path, &labels, &units, Some(5..9)).unwrap_err();
+    let e =
+        shard_stage::run(&config(2), &scene.frames_path, &labels, &units, Some(5..9)).unwrap_err();
     assert_eq!(
         e.to_string(),
         "shard range 5..9 is outside the plan's 6 shards"
@@ -176,8 +180,8 @@ fn only_shards_whose_frames_changed_are_rewritten() {
     let scene = scene_with_labels();
     let out = scene.out("shards");
     let first = run_all(&scene, 2, &out);
-    assert!(first.reused.is_empty());
-    let m = &first.manifest;
+    assert!(first.output.reused.is_empty());
+    let m = &first.output.manifest;
     assert_eq!(m.planned_shards, 6);
     for s in &m.shards {
         assert!(
@@ -210,28 +214,25 @@ fn only_shards_whose_frames_changed_are_rewritten() {
     bytes.push(0);
     std::fs::write(&damaged_file, bytes).unwrap();
 
-    let second = shard::run(&config(2), &scene.frames_path, &labels2, &out, None).unwrap();
-    assert!(!second.skipped && second.complete);
+    let second = shard_stage::run(&config(2), &scene.frames_path, &labels2, &out, None).unwrap();
+    assert!(!second.skipped && second.output.complete);
     let expected: Vec<usize> = (0..6).filter(|&i| i != holder && i != damaged).collect();
-    assert_eq!(second.reused, expected);
+    assert_eq!(second.output.reused, expected);
     assert_ne!(
-        second.manifest.shards[holder].sha256,
+        second.output.manifest.shards[holder].sha256,
         m.shards[holder].sha256
     );
-    assert_eq!(second.manifest.shards[damaged], m.shards[damaged]);
+    assert_eq!(second.output.manifest.shards[damaged], m.shards[damaged]);
 
     let fresh = scene.out("fresh");
-    let third = shard::run(&config(2), &scene.frames_path, &labels2, &fresh, None).unwrap();
-    assert!(third.reused.is_empty());
-    assert_eq!(third.manifest, second.manifest);
+    let third = shard_stage::run(&config(2), &scene.frames_path, &labels2, &fresh, None).unwrap();
+    assert!(third.output.reused.is_empty());
+    assert_eq!(third.output.manifest, second.output.manifest);
     assert_eq!(folder_bytes(&out), folder_bytes(&fresh));
     // Another layout gives other digests: nothing is kept.
-    let other = shard::run(
+    let other = shard_stage::run(
         &ShardStageConfig {
-            shards: shards::ShardConfig {
-                zstd_level: 4,
-                ..config(2).shards
-            },
+            zstd_level: 4,
             ..config(2)
         },
         &scene.frames_path,
@@ -240,7 +241,7 @@ fn only_shards_whose_frames_changed_are_rewritten() {
         None,
     )
     .unwrap();
-    assert!(other.reused.is_empty());
+    assert!(other.output.reused.is_empty());
 }
 
 #[test]
@@ -252,7 +253,7 @@ fn same_bytes_for_any_thread_count() {
             .build()
             .unwrap()
             .install(|| {
-                shard::run(
+                shard_stage::run(
                     &config(2),
                     &scene.frames_path,
                     &scene.out("labels"),
@@ -279,7 +280,7 @@ fn refuses_an_image_that_changed_since_ingest() {
     bytes[n - 20] ^= 1;
     std::fs::write(&f.path, &bytes).unwrap();
     let out = scene.out("shards");
-    let e = shard::run(
+    let e = shard_stage::run(
         &config(3),
         &scene.frames_path,
         &scene.out("labels"),
@@ -297,7 +298,7 @@ fn refuses_an_image_that_changed_since_ingest() {
         msg.contains("frame 4") && msg.contains("the file changed since ingest"),
         "{msg}"
     );
-    assert!(!out.join(shard::MANIFEST_FILE).exists());
+    assert!(!out.join(shard_stage::MANIFEST_FILE).exists());
     assert!(!out.join("stage.json").exists());
 }
 
@@ -306,7 +307,7 @@ fn refuses_labels_of_another_frames_table() {
     let mut scene = scene_with_labels();
     scene.table.meta.scene = "other".into();
     scene.write_frames();
-    let e = shard::run(
+    let e = shard_stage::run(
         &config(3),
         &scene.frames_path,
         &scene.out("labels"),
@@ -325,7 +326,7 @@ fn refuses_labels_that_miss_training_frames() {
     t.points.retain(|p| p.frame_id != 2);
     t.lines.retain(|p| p.frame_id != 2);
     t.write(&scene.out("labels")).unwrap();
-    let e = shard::run(
+    let e = shard_stage::run(
         &config(3),
         &scene.frames_path,
         &scene.out("labels"),

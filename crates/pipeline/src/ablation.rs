@@ -53,7 +53,10 @@ pub fn run_ablation(p: &Pipeline, options: &RunOptions) -> Result<Ablation> {
     let read = |r: &RunReport, q: &Pipeline| {
         r.score.clone().ok_or_else(|| PipelineError::Stage {
             stage: "score",
-            message: format!("no score summary in {}", q.stage_dir("score").display()),
+            message: format!(
+                "no score summary in {}",
+                q.stage_dir(crate::StageName::Score).display()
+            ),
         })
     };
     Ok(Ablation {

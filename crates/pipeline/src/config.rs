@@ -1,6 +1,11 @@
-//! The pipeline file (`pipeline/*.toml`): a work folder and one section per stage,
-//! mirroring each stage's own configuration. Unknown keys are refused; errors name the
-//! file, line and column.
+//! The pipeline file (`pipeline/*.toml`): a work folder and one section per stage. Each
+//! section deserialises straight into its stage's own configuration struct (the only
+//! place a setting and its default live): `[synth]` `synth::SynthConfig`, `[ingest]`
+//! `datasets::ingest::IngestConfig`, `[import]` `labels::import::ImportConfig`,
+//! `[refine]` `labels::refine::RefineConfig`, `[shard]`
+//! `shards::shard_stage::ShardStageConfig`, `[train]` `train::TrainConfig`, `[score]`
+//! `score::ScoreStageConfig`. Unknown keys are refused; errors name the file, line and
+//! column.
 //!
 //! Paths are relative to the pipeline file and may use `${NAME}` environment
 //! variables (the dataset, hloc and LIMAP folders of the templates). With `[synth]` the
@@ -10,15 +15,15 @@
 
 use crate::error::{PipelineError, Result, io_err};
 use crate::expand::{expand, line_column};
-use crate::train_stage::ScoreSection;
-use datasets::ingest::{DatasetKind, DepthOption, IngestConfig, PoseOption};
+use crate::stages::StageName;
+use datasets::ingest::{DatasetKind, DepthOption, IngestConfig};
 use labels::import::ImportConfig;
 use labels::refine::RefineConfig;
-use labels::shard::ShardStageConfig;
-use labels::{NameMapping, PoseSource};
+use score::ScoreStageConfig;
 use serde::{Deserialize, Serialize};
+use shards::shard_stage::ShardStageConfig;
 use std::path::{Path, PathBuf};
-use toml::Spanned;
+use synth::SynthConfig;
 
 /// The file as written (paths unexpanded). Serialisable: a lock file embeds the
 /// pipeline it was made from.
@@ -26,25 +31,24 @@ use toml::Spanned;
 #[serde(deny_unknown_fields)]
 pub struct PipelineFile {
     /// Work folder: each stage writes `<work>/<stage>/`.
-    pub work: Spanned<String>,
+    pub work: String,
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub synth: Option<SynthSection>,
+    pub synth: Option<SynthConfig>,
     #[serde(default)]
-    pub ingest: IngestSection,
+    pub ingest: IngestConfig,
     #[serde(default)]
-    pub import: ImportSection,
+    pub import: ImportConfig,
     /// Absent: the shards take the imported labels as they are.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub refine: Option<RefineSection>,
+    pub refine: Option<RefineConfig>,
     #[serde(default)]
-    pub shard: ShardSection,
-    /// The trainer's configuration (`pl2map train --config`; missing keys take their
-    /// defaults). Absent: the pipeline ends with the shards.
+    pub shard: ShardStageConfig,
+    /// Absent: the pipeline ends with the shards.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub train: Option<train::TrainConfig>,
     /// Scores the trained model on the test shards; needs `[train]`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub score: Option<ScoreSection>,
+    pub score: Option<ScoreStageConfig>,
     /// How `pl2map run --warm-start CKPT` continues training (defaults without it).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub warm_start: Option<WarmStartSection>,
@@ -76,181 +80,17 @@ impl WarmStartSection {
     }
 }
 
-/// `pl2map synth` options.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct SynthSection {
-    /// The test-sized scene (24 training + 8 test frames); `frames` is then ignored.
-    pub tiny: bool,
-    pub frames: usize,
-    pub seed: u64,
-    /// RMS 3D error (cm) added to the ground-truth labels, for `[refine]` to remove.
-    pub label_noise_cm: f64,
-    pub layout: DatasetKind,
-    pub name: String,
-    /// Only the first N training sequences (the dataset as recorded so far); raising it
-    /// later adds frames and leaves the others as they were.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub train_sequences: Option<usize>,
-}
-
-impl Default for SynthSection {
-    fn default() -> Self {
-        SynthSection {
-            tiny: false,
-            frames: datasets::synth::trajectory::DEFAULT_FRAMES,
-            seed: 0,
-            label_noise_cm: 0.0,
-            layout: DatasetKind::SevenScenes,
-            name: datasets::synth::generate::DEFAULT_SCENE_NAME.into(),
-            train_sequences: None,
-        }
-    }
-}
-
-/// `pl2map ingest` options. `depth` is `none`, `raw` or `rendered:DIR`.
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct IngestSection {
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub dataset: Option<DatasetKind>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub root: Option<Spanned<String>>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub scene: Option<String>,
-    pub poses: PoseOption,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub depth: Option<Spanned<String>>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub camera: Option<String>,
-}
-
-/// Image name rules (see `labels::NameMapping`); `replace_extension = [".jpg", ".png"]`.
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct NamesSection {
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub strip_prefix: Option<String>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub add_prefix: Option<String>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub replace_extension: Option<(String, String)>,
-}
-
-impl From<&NamesSection> for NameMapping {
-    fn from(n: &NamesSection) -> Self {
-        NameMapping {
-            strip_prefix: n.strip_prefix.clone(),
-            add_prefix: n.add_prefix.clone(),
-            replace_extension: n.replace_extension.clone(),
-        }
-    }
-}
-
-/// `pl2map import` options: the COLMAP model (hloc) and LIMAP folders, and the
-/// stage's `ImportConfig`.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct ImportSection {
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub model: Option<Spanned<String>>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub limap: Option<Spanned<String>>,
-    pub model_names: NamesSection,
-    pub limap_names: NamesSection,
-    pub pose_source: PoseSource,
-    pub allow_test_images: bool,
-    pub segment_scale: f64,
-    pub bounds_tolerance_px: f64,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub limap_segments: Option<PathBuf>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub limap_tracks: Option<PathBuf>,
-}
-
-impl Default for ImportSection {
-    fn default() -> Self {
-        let c = ImportConfig::default();
-        ImportSection {
-            model: None,
-            limap: None,
-            model_names: NamesSection::default(),
-            limap_names: NamesSection::default(),
-            pose_source: c.pose_source,
-            allow_test_images: c.allow_test_images,
-            segment_scale: c.segment_scale,
-            bounds_tolerance_px: c.bounds_tolerance_px,
-            limap_segments: c.limap_segments,
-            limap_tracks: c.limap_tracks,
-        }
-    }
-}
-
-impl ImportSection {
-    pub fn config(&self) -> ImportConfig {
-        ImportConfig {
-            model_names: (&self.model_names).into(),
-            limap_names: (&self.limap_names).into(),
-            pose_source: self.pose_source,
-            allow_test_images: self.allow_test_images,
-            segment_scale: self.segment_scale,
-            bounds_tolerance_px: self.bounds_tolerance_px,
-            limap_segments: self.limap_segments.clone(),
-            limap_tracks: self.limap_tracks.clone(),
-        }
-    }
-}
-
-/// The `[refine]` section is `labels::refine::RefineConfig` itself (metres), with its
-/// defaults for missing keys.
-pub use labels::refine::RefineConfig as RefineSection;
-
-/// `labels::shard::ShardStageConfig`, flattened.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct ShardSection {
-    pub frames_per_shard: usize,
-    pub chunk_size: u64,
-    pub zstd_level: u32,
-    pub include_test: bool,
-}
-
-impl Default for ShardSection {
-    fn default() -> Self {
-        let c = ShardStageConfig::default();
-        ShardSection {
-            frames_per_shard: c.shards.frames_per_shard,
-            chunk_size: c.shards.chunk_size,
-            zstd_level: c.shards.zstd_level,
-            include_test: c.include_test,
-        }
-    }
-}
-
-impl ShardSection {
-    pub fn config(&self) -> ShardStageConfig {
-        let mut c = ShardStageConfig {
-            include_test: self.include_test,
-            ..ShardStageConfig::default()
-        };
-        c.shards.frames_per_shard = self.frames_per_shard;
-        c.shards.chunk_size = self.chunk_size;
-        c.shards.zstd_level = self.zstd_level;
-        c
-    }
-}
-
-/// A pipeline with every path expanded and made absolute: what [`crate::run`] runs.
+/// A pipeline with every path expanded and made absolute: what [`crate::run()`] runs.
 #[derive(Clone, Debug)]
 pub struct Pipeline {
     /// The file it was read from (pipeline or lock file).
     pub origin: PathBuf,
     pub file: PipelineFile,
     pub work: PathBuf,
-    pub synth: Option<SynthSection>,
+    pub synth: Option<SynthConfig>,
+    /// With `root` (and a rendered `depth`) absolute.
     pub ingest: IngestConfig,
-    pub model: PathBuf,
-    pub limap: PathBuf,
+    /// With `model` and `limap` absolute.
     pub import: ImportConfig,
     pub refine: Option<RefineConfig>,
     pub shard: ShardStageConfig,
@@ -261,14 +101,6 @@ pub struct Pipeline {
 
 /// The label variant [`Pipeline::without_refine`] makes.
 pub const WITHOUT_REFINE: &str = "without-refine";
-
-/// Stages a branch keeps in its own folder.
-const BRANCH_STAGES: [&str; 3] = ["shard", "train", "score"];
-
-/// Stage folder names under the work folder, in run order.
-pub const STAGES: [&str; 7] = [
-    "synth", "ingest", "import", "refine", "shard", "train", "score",
-];
 
 impl Pipeline {
     /// Reads and resolves a pipeline file; relative paths are relative to its folder.
@@ -306,54 +138,46 @@ impl Pipeline {
                 });
             }
             file.ingest.scene = Some(scene.to_string());
-            if work.is_none() && !file.work.get_ref().contains("${SCENE}") {
-                let r = Resolver {
-                    text: &text,
-                    origin: path,
-                    base,
-                    scene: None,
-                };
-                work = Some(r.path("work", &file.work)?.join(scene));
+            if work.is_none() && !file.work.contains("${SCENE}") {
+                let r = Resolver::new(&text, path, base, &[], None);
+                work = Some(r.path(&["work"], &file.work)?.join(scene));
             }
         }
-        Pipeline::resolve(file, &text, path, base, work)
+        Pipeline::resolve(file, &text, path, base, work, &[])
     }
 
-    /// Resolves `file` (parsed from `text`, read from `origin`, for error positions).
-    /// `work` replaces the file's work folder (a lock file is rebuilt elsewhere).
+    /// Resolves `file` (parsed from `text`, read from `origin`, for error positions;
+    /// `prefix` is where the pipeline's tables sit in `text`: `["pipeline"]` in a lock
+    /// file). `work` replaces the file's work folder (a lock file is rebuilt elsewhere).
     pub fn resolve(
         file: PipelineFile,
         text: &str,
         origin: &Path,
         base: &Path,
         work: Option<PathBuf>,
+        prefix: &[&str],
     ) -> Result<Pipeline> {
-        let r = Resolver {
-            text,
-            origin,
-            base,
-            scene: file.ingest.scene.clone(),
-        };
+        let r = Resolver::new(text, origin, base, prefix, file.ingest.scene.clone());
         let work = match work {
             Some(w) => w,
-            None => r.path("work", &file.work)?,
+            None => r.path(&["work"], &file.work)?,
         };
         let work = absolute(&work)?;
-        let ing = &file.ingest;
-        let imp = &file.import;
-        let (ingest, model, limap) = match &file.synth {
+        let mut ingest = file.ingest.clone();
+        let mut import = file.import.clone();
+        match &file.synth {
             Some(s) => {
-                let given: Vec<&str> = [
-                    ("ingest.dataset", ing.dataset.is_some()),
-                    ("ingest.root", ing.root.is_some()),
-                    ("ingest.scene", ing.scene.is_some()),
-                    ("ingest.depth", ing.depth.is_some()),
-                    ("import.model", imp.model.is_some()),
-                    ("import.limap", imp.limap.is_some()),
+                let given: Vec<String> = [
+                    ["ingest", "dataset"],
+                    ["ingest", "root"],
+                    ["ingest", "scene"],
+                    ["ingest", "depth"],
+                    ["import", "model"],
+                    ["import", "limap"],
                 ]
-                .into_iter()
-                .filter(|(_, g)| *g)
-                .map(|(k, _)| k)
+                .iter()
+                .filter(|k| r.given(&k[..]))
+                .map(|k| k.join("."))
                 .collect();
                 if !given.is_empty() {
                     return Err(r.config(format!(
@@ -361,77 +185,75 @@ impl Pipeline {
                         given.join(", ")
                     )));
                 }
-                if s.name.is_empty() || s.name.contains(['/', '\\']) || s.name.starts_with('.') {
-                    return Err(r.config(format!(
-                        "synth.name {:?} must be a plain folder name",
-                        s.name
-                    )));
-                }
-                if !(s.label_noise_cm.is_finite() && s.label_noise_cm >= 0.0) {
-                    return Err(r.config("synth.label_noise_cm must be finite and >= 0".into()));
-                }
-                let root = work.join("synth").join(&s.name);
-                let gt = root.join(datasets::synth::gt::GT_DIR);
-                let mut c = IngestConfig::new(s.layout, &root);
-                c.poses = ing.poses;
-                c.camera = ing.camera.clone();
+                s.validate()
+                    .map_err(|e| r.config(format!("[synth]: {e}")))?;
+                let root = work.join(StageName::Synth.dir()).join(&s.name);
+                let gt = root.join(synth::gt::GT_DIR);
+                ingest.dataset = Some(match s.layout {
+                    synth::Layout::SevenScenes => DatasetKind::SevenScenes,
+                    synth::Layout::Cambridge => DatasetKind::Cambridge,
+                });
                 // The renderer writes depth in the colour camera next to 7-Scenes
                 // frames; the Cambridge layout has none.
-                if s.layout == DatasetKind::SevenScenes {
-                    c.depth = DepthOption::Rendered(root.clone());
+                if s.layout == synth::Layout::SevenScenes {
+                    ingest.depth = DepthOption::Rendered(root.clone());
                 }
-                (c, gt.join("colmap"), gt.join("limap"))
+                ingest.root = Some(root);
+                import.model = Some(gt.join("colmap"));
+                import.limap = Some(gt.join("limap"));
             }
             None => {
-                let need = |key: &str, v: &Option<Spanned<String>>| -> Result<PathBuf> {
-                    match v {
-                        Some(v) => r.path(key, v),
-                        None => Err(r.config(format!("{key} is required without [synth]"))),
+                if ingest.dataset.is_none() {
+                    return Err(r.config("ingest.dataset is required without [synth]".into()));
+                }
+                let need = |key: [&str; 2], v: &Option<PathBuf>| -> Result<PathBuf> {
+                    match v.as_deref().and_then(Path::to_str) {
+                        Some(v) => r.path(&key, v),
+                        None if v.is_some() => Err(r.value(&key, "path is not valid UTF-8".into())),
+                        None => {
+                            Err(r.config(format!("{} is required without [synth]", key.join("."))))
+                        }
                     }
                 };
-                let dataset = ing
-                    .dataset
-                    .ok_or_else(|| r.config("ingest.dataset is required without [synth]".into()))?;
-                let mut c = IngestConfig::new(dataset, need("ingest.root", &ing.root)?);
-                c.scene = ing.scene.clone();
-                c.poses = ing.poses;
-                c.camera = ing.camera.clone();
-                if let Some(d) = &ing.depth {
-                    let text = r.expand("ingest.depth", d)?;
-                    c.depth = match text.parse::<DepthOption>() {
-                        Ok(DepthOption::Rendered(dir)) => DepthOption::Rendered(base.join(dir)),
-                        Ok(other) => other,
-                        Err(e) => return Err(r.value("ingest.depth", d.span(), e)),
-                    };
+                ingest.root = Some(need(["ingest", "root"], &ingest.root)?);
+                if let DepthOption::Rendered(dir) = &ingest.depth {
+                    let dir = dir.to_str().ok_or_else(|| {
+                        r.value(&["ingest", "depth"], "path is not valid UTF-8".into())
+                    })?;
+                    ingest.depth = DepthOption::Rendered(r.path(&["ingest", "depth"], dir)?);
                 }
-                let model = need("import.model", &imp.model)?;
-                let limap = need("import.limap", &imp.limap)?;
-                (c, model, limap)
+                import.model = Some(need(["import", "model"], &import.model)?);
+                import.limap = Some(need(["import", "limap"], &import.limap)?);
             }
-        };
+        }
         if file.score.is_some() && file.train.is_none() {
             return Err(r.config("[score] scores the model of [train]: add [train]".into()));
+        }
+        file.shard
+            .validate()
+            .map_err(|e| r.config(format!("[shard]: {e}")))?;
+        if let Some(t) = &file.train {
+            t.validate()
+                .map_err(|e| r.config(format!("[train]: {e}")))?;
         }
         Ok(Pipeline {
             origin: origin.to_path_buf(),
             work,
             synth: file.synth.clone(),
             ingest,
-            model,
-            limap,
-            import: imp.config(),
+            import,
             refine: file.refine.clone(),
-            shard: file.shard.config(),
+            shard: file.shard.clone(),
             file,
             branch: None,
         })
     }
 
     /// `<work>/<stage>`, or `<work>/<branch>/<stage>` for a branch's own stages.
-    pub fn stage_dir(&self, stage: &str) -> PathBuf {
+    pub fn stage_dir(&self, stage: StageName) -> PathBuf {
         match &self.branch {
-            Some(b) if BRANCH_STAGES.contains(&stage) => self.work.join(b).join(stage),
-            _ => self.work.join(stage),
+            Some(b) if stage.per_branch() => self.work.join(b).join(stage.dir()),
+            _ => self.work.join(stage.dir()),
         }
     }
 
@@ -448,14 +270,15 @@ impl Pipeline {
     /// The label folder the shards are made from: refine's, or import's without it.
     pub fn labels_dir(&self) -> PathBuf {
         self.stage_dir(if self.refine.is_some() {
-            "refine"
+            StageName::Refine
         } else {
-            "import"
+            StageName::Import
         })
     }
 
     pub fn frames_path(&self) -> PathBuf {
-        self.stage_dir("ingest").join(datasets::ingest::FRAMES_FILE)
+        self.stage_dir(StageName::Ingest)
+            .join(datasets::ingest::FRAMES_FILE)
     }
 }
 
@@ -486,23 +309,75 @@ fn absolute(p: &Path) -> Result<PathBuf> {
     Ok(out)
 }
 
+/// Expands and places path values; errors name the file and, where the key is written
+/// in it, the line and column.
 struct Resolver<'a> {
     text: &'a str,
     origin: &'a Path,
     base: &'a Path,
+    /// Where the pipeline's tables sit in `text` (`["pipeline"]` in a lock file).
+    prefix: Vec<String>,
     /// `${SCENE}`: `ingest.scene` (after `--scene`); other names come from the environment.
     scene: Option<String>,
+    doc: Option<toml::Spanned<toml::de::DeTable<'a>>>,
 }
 
-impl Resolver<'_> {
-    fn value(&self, key: &str, span: std::ops::Range<usize>, message: String) -> PipelineError {
-        let (line, column) = line_column(self.text, span.start);
-        PipelineError::Value {
-            path: self.origin.to_path_buf(),
-            line,
-            column,
-            key: key.to_string(),
-            message,
+impl<'a> Resolver<'a> {
+    fn new(
+        text: &'a str,
+        origin: &'a Path,
+        base: &'a Path,
+        prefix: &[&str],
+        scene: Option<String>,
+    ) -> Self {
+        Resolver {
+            text,
+            origin,
+            base,
+            prefix: prefix.iter().map(|s| s.to_string()).collect(),
+            scene,
+            doc: toml::de::DeTable::parse(text).ok(),
+        }
+    }
+
+    /// The span of the value of `key` (a path of table names and a key) in the text.
+    fn span(&self, key: &[&str]) -> Option<std::ops::Range<usize>> {
+        let doc = self.doc.as_ref()?;
+        let mut table = doc.get_ref();
+        let path: Vec<&str> = self
+            .prefix
+            .iter()
+            .map(String::as_str)
+            .chain(key.iter().copied())
+            .collect();
+        let (last, tables) = path.split_last()?;
+        for name in tables {
+            match table.get(*name)?.get_ref() {
+                toml::de::DeValue::Table(t) => table = t,
+                _ => return None,
+            }
+        }
+        table.get(*last).map(|v| v.span())
+    }
+
+    /// Whether `key` is written in the file.
+    fn given(&self, key: &[&str]) -> bool {
+        self.span(key).is_some()
+    }
+
+    fn value(&self, key: &[&str], message: String) -> PipelineError {
+        match self.span(key) {
+            Some(span) => {
+                let (line, column) = line_column(self.text, span.start);
+                PipelineError::Value {
+                    path: self.origin.to_path_buf(),
+                    line,
+                    column,
+                    key: key.join("."),
+                    message,
+                }
+            }
+            None => self.config(format!("{}: {message}", key.join("."))),
         }
     }
 
@@ -513,19 +388,15 @@ impl Resolver<'_> {
         }
     }
 
-    fn expand(&self, key: &str, v: &Spanned<String>) -> Result<String> {
+    /// Expanded (`${NAME}`), then relative to the pipeline file's folder.
+    fn path(&self, key: &[&str], v: &str) -> Result<PathBuf> {
         let lookup = |n: &str| match n {
             "SCENE" => self.scene.clone(),
             _ => std::env::var(n).ok(),
         };
-        expand(v.get_ref(), lookup).map_err(|m| self.value(key, v.span(), m))
-    }
-
-    /// Expanded, then relative to the pipeline file's folder.
-    fn path(&self, key: &str, v: &Spanned<String>) -> Result<PathBuf> {
-        let s = self.expand(key, v)?;
+        let s = expand(v, lookup).map_err(|m| self.value(key, m))?;
         if s.is_empty() {
-            return Err(self.value(key, v.span(), "empty path".into()));
+            return Err(self.value(key, "empty path".into()));
         }
         Ok(self.base.join(s))
     }
@@ -537,22 +408,26 @@ mod tests {
 
     fn resolve(text: &str) -> Result<Pipeline> {
         let f = parse::<PipelineFile>(text, Path::new("/p/x.toml"))?;
-        Pipeline::resolve(f, text, Path::new("/p/x.toml"), Path::new("/p"), None)
+        Pipeline::resolve(f, text, Path::new("/p/x.toml"), Path::new("/p"), None, &[])
     }
 
     #[test]
     fn synthetic_defaults() {
         let p = resolve("work = \"./x/../w\"\n[synth]\ntiny = true\n[refine]\n").unwrap();
         assert_eq!(p.work, PathBuf::from("/p/w"));
-        assert_eq!(p.ingest.root, PathBuf::from("/p/w/synth/synthroom"));
+        assert_eq!(p.ingest.root, Some(PathBuf::from("/p/w/synth/synthroom")));
+        assert_eq!(p.ingest.dataset, Some(DatasetKind::SevenScenes));
         assert_eq!(
             p.ingest.depth,
             DepthOption::Rendered("/p/w/synth/synthroom".into())
         );
-        assert_eq!(p.model, PathBuf::from("/p/w/synth/synthroom/sfm_gt/colmap"));
+        assert_eq!(
+            p.import.model,
+            Some(PathBuf::from("/p/w/synth/synthroom/sfm_gt/colmap"))
+        );
         assert_eq!(p.refine, Some(RefineConfig::default()));
         assert_eq!(p.shard, ShardStageConfig::default());
-        assert_eq!(p.import, ImportConfig::default());
+        assert_eq!(p.import.settings(), ImportConfig::default());
         assert_eq!(p.labels_dir(), PathBuf::from("/p/w/refine"));
     }
 
@@ -577,14 +452,14 @@ mod tests {
         assert!(e.starts_with("/p/x.toml:9:9: import.limap:"), "{e}");
         assert!(e.contains("PL2MAP_TEST_CONFIG_UNSET is not set"), "{e}");
         let p = resolve(&text.replace("${PL2MAP_TEST_CONFIG_UNSET}", "limap")).unwrap();
-        assert_eq!(p.ingest.root, PathBuf::from("/data/7scenes"));
+        assert_eq!(p.ingest.root, Some(PathBuf::from("/data/7scenes")));
         assert_eq!(p.ingest.scene_dir(), PathBuf::from("/data/7scenes/stairs"));
         assert_eq!(
             p.ingest.depth,
             DepthOption::Rendered("/p/depth/stairs".into())
         );
-        assert_eq!(p.model, PathBuf::from("/p/hloc/stairs"));
-        assert_eq!(p.limap, PathBuf::from("/p/limap/stairs"));
+        assert_eq!(p.import.model, Some(PathBuf::from("/p/hloc/stairs")));
+        assert_eq!(p.import.limap, Some(PathBuf::from("/p/limap/stairs")));
         assert!(p.refine.is_none());
         assert_eq!(p.labels_dir(), PathBuf::from("/w/import"));
     }
@@ -616,5 +491,27 @@ mod tests {
             "serialised pipeline is stable"
         );
         assert_eq!(back.refine.unwrap().seed, 3);
+        // Nothing that comes from [synth] is written back (it would conflict).
+        for key in [
+            "\nroot =",
+            "\ndepth =",
+            "\ndataset =",
+            "\nmodel =",
+            "\nlimap =",
+        ] {
+            assert!(!again.contains(key), "{key} in {again}");
+        }
+    }
+
+    #[test]
+    fn invalid_values_are_refused_when_the_file_loads() {
+        let e = resolve("work = \"w\"\n[synth]\ntiny = true\n[shard]\nframes_per_shard = 0\n")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("frames_per_shard"), "{e}");
+        let e = resolve("work = \"w\"\n[synth]\nlabel_noise_cm = -1.0\n")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("label_noise_cm"), "{e}");
     }
 }

@@ -1,8 +1,10 @@
-//! Pipeline files and lock files (issue 7):
-//! - [`config`]: `pipeline/*.toml`, one section per stage, paths relative to the file or
-//!   from `${ENV}` variables;
+//! Pipeline files and lock files:
+//! - [`config`]: `pipeline/*.toml`, one section per stage, each deserialised straight
+//!   into its stage's configuration; paths relative to the file or from `${ENV}`
+//!   variables;
+//! - [`stages`]: the typed list of stages, in run order;
 //! - [`run()`]: the stages in order into `<work>/<stage>/`, each skipping itself when its
-//!   `stage.json` matches; train and score keep their records in [`train_stage`];
+//!   `stage.json` matches (the stage runner of the `stage` crate);
 //! - [`ablation`]: the pipeline with and without `[refine]`, scored side by side;
 //! - [`lock`]: `manifests/*.toml`, the hashes of a reproducible training set, and
 //!   [`lock::verify`], which rebuilds it and compares.
@@ -13,11 +15,11 @@ pub mod error;
 pub mod expand;
 pub mod lock;
 pub mod run;
-pub mod synth_stage;
-pub mod train_stage;
+pub mod stages;
 
 pub use ablation::{Ablation, run_ablation};
-pub use config::{Pipeline, PipelineFile, STAGES, WITHOUT_REFINE, WarmStartSection};
+pub use config::{Pipeline, PipelineFile, WITHOUT_REFINE, WarmStartSection};
 pub use error::{PipelineError, Result};
 pub use lock::{Lock, VerifyReport, verify};
 pub use run::{RunOptions, RunReport, StageReport, Status, run};
+pub use stages::StageName;

@@ -11,7 +11,7 @@
 use crate::config::{Pipeline, PipelineFile, parse};
 use crate::error::{PipelineError, Result, io_err};
 use crate::run::{RunOptions, run};
-use crate::synth_stage;
+use crate::stages::StageName;
 use serde::{Deserialize, Serialize};
 use shards::ManifestShard;
 use std::collections::{BTreeMap, BTreeSet};
@@ -49,9 +49,11 @@ impl Lock {
                     .into(),
             });
         };
-        let synth_dir = p.stage_dir("synth");
+        let synth_dir = p.stage_dir(StageName::Synth);
         let mut groups: BTreeMap<String, Vec<String>> = BTreeMap::new();
-        for rel in synth_stage::files_under(&synth_dir, &synth.name)? {
+        for rel in synth::synth_stage::files_under(&synth_dir, &synth.name)
+            .map_err(|e| crate::error::stage_err("synth")(&e))?
+        {
             groups.entry(input_group(&rel)).or_default().push(rel);
         }
         let mut inputs = BTreeMap::new();
@@ -68,7 +70,7 @@ impl Lock {
                 outputs.insert(rel.to_string(), stage::sha256_file(&path)?);
             }
         }
-        let manifest_path = p.stage_dir("shard").join(labels::shard::MANIFEST_FILE);
+        let manifest_path = p.stage_dir(StageName::Shard).join(shards::MANIFEST_FILE);
         let manifest =
             shards::Manifest::load(&manifest_path).map_err(|e| PipelineError::Stage {
                 stage: "shard",
@@ -116,7 +118,7 @@ impl Lock {
 fn input_group(rel: &str) -> String {
     let parts: Vec<&str> = rel.split('/').skip(1).collect();
     match parts.as_slice() {
-        [gt, sub, ..] if *gt == datasets::synth::gt::GT_DIR => format!("{gt}/{sub}"),
+        [gt, sub, ..] if *gt == synth::gt::GT_DIR => format!("{gt}/{sub}"),
         [first, _, ..] => (*first).to_string(),
         [file] => (*file).to_string(),
         [] => String::new(),
@@ -301,11 +303,18 @@ pub fn verify(manifest: &Path, work: Option<&Path>, progress: bool) -> Result<Ve
         }
     };
     let base = manifest.parent().unwrap_or(Path::new("."));
-    let p = Pipeline::resolve(expected.pipeline.clone(), &text, manifest, base, Some(work))?;
+    let p = Pipeline::resolve(
+        expected.pipeline.clone(),
+        &text,
+        manifest,
+        base,
+        Some(work),
+        &["pipeline"],
+    )?;
     run(
         &p,
         &RunOptions {
-            until: Some("shard".into()),
+            until: Some(StageName::Shard),
             progress,
             ..RunOptions::default()
         },

@@ -1,15 +1,15 @@
-//! `pl2map run`: the stages in order into `<work>/<stage>/`. Each stage function checks
-//! its own `stage.json` (configuration hash, content hashes of its inputs, intact
-//! outputs) and skips itself when it matches, so a changed section reruns its stage, and
-//! the stages after it rerun because their inputs' hashes changed.
+//! `pl2map run`: the stages of [`StageName::ALL`] in order into `<work>/<stage>/`. Each
+//! stage function runs through the stage runner (`stage::Stage`): it checks its own
+//! `stage.json` (configuration hash, content hashes of its inputs, intact outputs) and
+//! skips itself when it matches, so a changed section reruns its stage, and the stages
+//! after it rerun because their inputs' hashes changed.
 
-use crate::config::{Pipeline, STAGES};
+use crate::config::Pipeline;
 use crate::error::{PipelineError, Result, stage_err};
-use crate::train_stage::WarmStart;
-use crate::{synth_stage, train_stage};
+use crate::stages::StageName;
+use stage::{Done, Note};
 use std::ops::Range;
 use std::path::PathBuf;
-use std::time::Instant;
 
 #[derive(Clone, Debug, PartialEq)]
 pub enum Status {
@@ -22,7 +22,7 @@ pub enum Status {
 
 #[derive(Clone, Debug)]
 pub struct StageReport {
-    pub stage: &'static str,
+    pub stage: StageName,
     pub status: Status,
     pub seconds: f64,
     pub dir: PathBuf,
@@ -30,10 +30,36 @@ pub struct StageReport {
     pub note: String,
 }
 
+impl StageReport {
+    fn done<T: Note>(stage: StageName, dir: PathBuf, done: &Done<T>) -> Self {
+        StageReport {
+            stage,
+            status: if done.skipped {
+                Status::Skipped
+            } else {
+                Status::Ran
+            },
+            seconds: done.seconds,
+            dir,
+            note: done.output.note(),
+        }
+    }
+
+    fn off(stage: StageName, dir: PathBuf, why: impl Into<String>) -> Self {
+        StageReport {
+            stage,
+            status: Status::Off(why.into()),
+            seconds: 0.0,
+            dir,
+            note: String::new(),
+        }
+    }
+}
+
 #[derive(Clone, Debug, Default)]
 pub struct RunOptions {
-    /// Last stage to run (one of [`STAGES`]); None: all.
-    pub until: Option<String>,
+    /// Last stage to run; None: all.
+    pub until: Option<StageName>,
     /// Progress bars (also hidden when stderr is not a terminal).
     pub progress: bool,
     /// Continue training from this model (`[warm_start]` says how long), when the
@@ -52,7 +78,7 @@ pub struct RunReport {
 }
 
 impl RunReport {
-    pub fn status(&self, stage: &str) -> Option<&Status> {
+    pub fn status(&self, stage: StageName) -> Option<&Status> {
         self.stages
             .iter()
             .find(|s| s.stage == stage)
@@ -82,169 +108,128 @@ impl RunReport {
     }
 }
 
-fn status(skipped: bool) -> Status {
-    if skipped {
-        Status::Skipped
-    } else {
-        Status::Ran
-    }
-}
-
 /// Runs the pipeline's stages in order (up to `options.until`).
 pub fn run(p: &Pipeline, options: &RunOptions) -> Result<RunReport> {
-    let last = match &options.until {
-        Some(u) => STAGES
-            .iter()
-            .position(|s| s == u)
-            .ok_or_else(|| PipelineError::Config {
-                path: p.origin.clone(),
-                message: format!(
-                    "unknown stage {u:?} (expected one of {})",
-                    STAGES.join(", ")
-                ),
-            })?,
-        None => STAGES.len() - 1,
-    };
-    let frames = p.frames_path();
+    let last = options.until.unwrap_or(StageName::Score);
     let mut stages = Vec::new();
     // The score stage's summary, when it ran or was up to date.
     let mut score_summary = None;
-    for (i, &stage) in STAGES.iter().enumerate() {
+    for stage in StageName::ALL {
         let dir = p.stage_dir(stage);
-        let t = Instant::now();
-        let unit_done =
-            options.shards.is_some() && i > STAGES.iter().position(|s| *s == "shard").unwrap_or(0);
-        let (status, note) = if i > last {
-            (
-                Status::Off(format!("after --until {}", STAGES[last])),
-                String::new(),
-            )
-        } else if unit_done {
-            (
-                Status::Off("a --shards work unit ends with its shards".into()),
-                String::new(),
-            )
+        let report = if stage > last {
+            StageReport::off(stage, dir, format!("after --until {last}"))
+        } else if options.shards.is_some() && stage > StageName::Shard {
+            StageReport::off(stage, dir, "a --shards work unit ends with its shards")
         } else {
-            match stage {
-                "synth" => match &p.synth {
-                    Some(s) => {
-                        let skipped = synth_stage::run(s, &dir, options.progress)?;
-                        let note = if s.tiny {
-                            "tiny scene".to_string()
-                        } else {
-                            format!("{} frames", s.frames)
-                        };
-                        (status(skipped), format!("{note}, seed {}", s.seed))
-                    }
-                    None => (Status::Off("inputs from a dataset".into()), String::new()),
-                },
-                "ingest" => {
-                    let out = datasets::ingest::run(&p.ingest, &dir)
-                        .map_err(|e| stage_err("ingest")(&e))?;
-                    let n = out.table.frames.len();
-                    (status(out.skipped), format!("{n} frames"))
-                }
-                "import" => {
-                    let out = labels::import::run(&p.import, &frames, &p.model, &p.limap, &dir)
-                        .map_err(|e| stage_err("import")(&e))?;
-                    (status(out.skipped), String::new())
-                }
-                "refine" => match &p.refine {
-                    Some(c) => {
-                        let out = labels::refine::run(c, &frames, &p.stage_dir("import"), &dir)
-                            .map_err(|e| stage_err("refine")(&e))?;
-                        (status(out.skipped), String::new())
-                    }
-                    None => (Status::Off("no [refine]".into()), String::new()),
-                },
-                "shard" => {
-                    let range = options.shards.clone();
-                    let out = labels::shard::run(&p.shard, &frames, &p.labels_dir(), &dir, range)
-                        .map_err(|e| stage_err("shard")(&e))?;
-                    let m = &out.manifest;
-                    let mut note = format!(
-                        "{} shards, {} frames",
-                        m.shards.len(),
-                        m.shards.iter().map(|s| s.frame_count).sum::<u64>()
-                    );
-                    if !out.reused.is_empty() {
-                        note = format!(
-                            "{note}; {} kept (frames unchanged), {} written",
-                            out.reused.len(),
-                            m.shards.len() - out.reused.len()
-                        );
-                    }
-                    if let Some(r) = &options.shards {
-                        let state = if out.complete {
-                            "the set is complete"
-                        } else {
-                            "other units pending"
-                        };
-                        note = format!("unit {}..{}: {note}; {state}", r.start, r.end);
-                    }
-                    (status(out.skipped), note)
-                }
-                "train" => match &p.file.train {
-                    Some(c) => {
-                        let warm = options.warm_start.as_ref().map(|ckpt| WarmStart {
-                            checkpoint: ckpt.clone(),
-                            config: p
-                                .file
-                                .warm_start
-                                .clone()
-                                .unwrap_or_default()
-                                .train_config(c),
-                        });
-                        let (skipped, _) = train_stage::train(
-                            c,
-                            &p.stage_dir("shard"),
-                            &dir,
-                            options.progress,
-                            warm.as_ref(),
-                        )?;
-                        let note = match &warm {
-                            Some(w) => format!(
-                                "warm start from {}: {} iterations, seed {}",
-                                w.checkpoint.display(),
-                                w.config.iterations,
-                                w.config.seed
-                            ),
-                            None => format!("{} iterations, seed {}", c.iterations, c.seed),
-                        };
-                        (status(skipped), note)
-                    }
-                    None => (Status::Off("no [train]".into()), String::new()),
-                },
-                "score" => match &p.file.score {
-                    Some(s) => {
-                        let model = p.stage_dir("train").join(train::checkpoint::MODEL_FILE);
-                        let (skipped, summary) =
-                            train_stage::score(s, &p.stage_dir("shard"), &model, &dir)?;
-                        let note = train_stage::summary_line(&summary);
-                        score_summary = Some(summary);
-                        (status(skipped), note)
-                    }
-                    None => (Status::Off("no [score]".into()), String::new()),
-                },
-                _ => unreachable!("STAGES lists every stage handled here"),
-            }
+            let r = run_stage(p, stage, dir, options, &mut score_summary)?;
+            tracing::info!("{stage}: {:?}", r.status);
+            r
         };
-        let seconds = if matches!(status, Status::Ran | Status::Skipped) {
-            t.elapsed().as_secs_f64()
-        } else {
-            0.0
-        };
-        tracing::info!("{stage}: {status:?}");
-        stages.push(StageReport {
-            stage,
-            status,
-            seconds,
-            dir,
-            note,
-        });
+        stages.push(report);
     }
     Ok(RunReport {
         stages,
         score: score_summary,
+    })
+}
+
+/// One stage of `p` into `dir`.
+fn run_stage(
+    p: &Pipeline,
+    stage: StageName,
+    dir: PathBuf,
+    options: &RunOptions,
+    score_summary: &mut Option<score::Summary>,
+) -> Result<StageReport> {
+    let name = stage.as_str();
+    let frames = p.frames_path();
+    Ok(match stage {
+        StageName::Synth => match &p.synth {
+            Some(s) => {
+                let done = synth::synth_stage::run(s, &dir, options.progress)
+                    .map_err(|e| stage_err(name)(&e))?;
+                StageReport::done(stage, dir, &done)
+            }
+            None => StageReport::off(stage, dir, "inputs from a dataset"),
+        },
+        StageName::Ingest => {
+            let done = datasets::ingest::run(&p.ingest, &dir).map_err(|e| stage_err(name)(&e))?;
+            StageReport::done(stage, dir, &done)
+        }
+        StageName::Import => {
+            let done =
+                labels::import::run(&p.import, &frames, &dir).map_err(|e| stage_err(name)(&e))?;
+            StageReport::done(stage, dir, &done)
+        }
+        StageName::Refine => match &p.refine {
+            Some(c) => {
+                let done = labels::refine::run(c, &frames, &p.stage_dir(StageName::Import), &dir)
+                    .map_err(|e| stage_err(name)(&e))?;
+                StageReport::done(stage, dir, &done)
+            }
+            None => StageReport::off(stage, dir, "no [refine]"),
+        },
+        StageName::Shard => {
+            let done = shards::shard_stage::run(
+                &p.shard,
+                &frames,
+                &p.labels_dir(),
+                &dir,
+                options.shards.clone(),
+            )
+            .map_err(|e| stage_err(name)(&e))?;
+            StageReport::done(stage, dir, &done)
+        }
+        StageName::Train => match &p.file.train {
+            Some(c) => {
+                let (config, init) = match &options.warm_start {
+                    Some(ckpt) => (
+                        p.file
+                            .warm_start
+                            .clone()
+                            .unwrap_or_default()
+                            .train_config(c),
+                        Some(ckpt.clone()),
+                    ),
+                    None => (c.clone(), None),
+                };
+                if let Some(ckpt) = &init
+                    && !ckpt.is_file()
+                {
+                    return Err(PipelineError::Stage {
+                        stage: name,
+                        message: format!("--warm-start {}: no such file", ckpt.display()),
+                    });
+                }
+                let opts = train::TrainStageOptions {
+                    only_if_new_shards: init.is_some(),
+                    init,
+                    progress: options.progress,
+                    ..Default::default()
+                };
+                let done =
+                    train::train_stage::run(&config, &p.stage_dir(StageName::Shard), &dir, &opts)
+                        .map_err(|e| stage_err(name)(&e))?;
+                StageReport::done(stage, dir, &done)
+            }
+            None => StageReport::off(stage, dir, "no [train]"),
+        },
+        StageName::Score => match &p.file.score {
+            Some(s) => {
+                let model = p
+                    .stage_dir(StageName::Train)
+                    .join(train::checkpoint::MODEL_FILE);
+                let done = score::score_stage::run(
+                    s,
+                    &p.stage_dir(StageName::Shard),
+                    &score::Source::Network(model),
+                    &dir,
+                )
+                .map_err(|e| stage_err(name)(&e))?;
+                *score_summary = Some(done.output.summary.clone());
+                StageReport::done(stage, dir, &done)
+            }
+            None => StageReport::off(stage, dir, "no [score]"),
+        },
     })
 }

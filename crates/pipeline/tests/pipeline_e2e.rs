@@ -3,7 +3,7 @@
 //! `manifests/synthetic-tiny.toml` verifies (the CI check of issue 7) and a tampered one
 //! fails naming the shard.
 
-use pipeline::{Lock, Pipeline, RunOptions, Status, lock, run};
+use pipeline::{Lock, Pipeline, RunOptions, StageName, Status, lock, run};
 use std::path::{Path, PathBuf};
 
 fn repo() -> PathBuf {
@@ -20,13 +20,13 @@ fn committed_manifest() -> PathBuf {
 
 fn quiet() -> RunOptions {
     RunOptions {
-        until: Some("shard".into()),
+        until: Some(StageName::Shard),
         progress: false,
         ..Default::default()
     }
 }
 
-fn statuses(report: &pipeline::RunReport) -> Vec<(&'static str, Status)> {
+fn statuses(report: &pipeline::RunReport) -> Vec<(StageName, Status)> {
     report
         .stages
         .iter()
@@ -40,7 +40,13 @@ fn reruns_only_what_a_change_affects_and_tampering_is_named() {
     let dir = tempfile::tempdir().unwrap();
     let work = dir.path().join("work");
     let p = Pipeline::load_with_work(&tiny_pipeline(), Some(work.clone())).unwrap();
-    let stages = ["synth", "ingest", "import", "refine", "shard"];
+    let stages = [
+        StageName::Synth,
+        StageName::Ingest,
+        StageName::Import,
+        StageName::Refine,
+        StageName::Shard,
+    ];
 
     let first = run(&p, &quiet()).unwrap();
     assert!(first.score.is_none(), "--until shard has no score");
@@ -102,11 +108,11 @@ fn reruns_only_what_a_change_affects_and_tampering_is_named() {
     let same_labels = run(&with_threshold(0.01), &quiet()).unwrap();
     let expect = |refine, shard| {
         vec![
-            ("synth", Status::Skipped),
-            ("ingest", Status::Skipped),
-            ("import", Status::Skipped),
-            ("refine", refine),
-            ("shard", shard),
+            (StageName::Synth, Status::Skipped),
+            (StageName::Ingest, Status::Skipped),
+            (StageName::Import, Status::Skipped),
+            (StageName::Refine, refine),
+            (StageName::Shard, shard),
         ]
     };
     assert_eq!(
@@ -185,19 +191,6 @@ fn train_and_score_run_once_then_skip() {
         second.score.as_ref().map(|s| s.table()),
         Some(score.table())
     );
-    let bad = run(
-        &p,
-        &RunOptions {
-            until: Some("nope".into()),
-            progress: false,
-            ..Default::default()
-        },
-    );
-    assert!(
-        bad.unwrap_err()
-            .to_string()
-            .contains("unknown stage \"nope\"")
-    );
 }
 
 #[test]
@@ -219,7 +212,7 @@ fn committed_pipeline_files_resolve() {
     let s = Pipeline::load(&dir.join("7scenes.toml")).unwrap();
     assert_eq!(s.ingest.scene_dir(), PathBuf::from("/data/7scenes/stairs"));
     assert_eq!(s.work, PathBuf::from("/w/7scenes-stairs"));
-    assert_eq!(s.limap, PathBuf::from("/out/limap/stairs"));
+    assert_eq!(s.import.limap, Some(PathBuf::from("/out/limap/stairs")));
     assert!(s.refine.is_some() && s.synth.is_none());
     // A work unit of another scene: ${SCENE} follows --scene everywhere.
     let chess = Pipeline::load_unit(&dir.join("7scenes.toml"), None, Some("chess")).unwrap();
@@ -229,10 +222,10 @@ fn committed_pipeline_files_resolve() {
     );
     assert_eq!(chess.work, PathBuf::from("/w/7scenes-chess"));
     assert_eq!(
-        chess.model,
-        PathBuf::from("/out/hloc/chess/sfm_superpoint+superglue")
+        chess.import.model,
+        Some(PathBuf::from("/out/hloc/chess/sfm_superpoint+superglue"))
     );
-    assert_eq!(chess.limap, PathBuf::from("/out/limap/chess"));
+    assert_eq!(chess.import.limap, Some(PathBuf::from("/out/limap/chess")));
     assert_eq!(
         chess.ingest.depth,
         datasets::ingest::DepthOption::Rendered(PathBuf::from(
@@ -246,7 +239,10 @@ fn committed_pipeline_files_resolve() {
     let kings = Pipeline::load(&dir.join("cambridge.toml")).unwrap();
     assert_eq!(kings.work, PathBuf::from("/w/cambridge-KingsCollege"));
     let c = Pipeline::load(&dir.join("cambridge.toml")).unwrap();
-    assert_eq!(c.ingest.dataset, datasets::ingest::DatasetKind::Cambridge);
+    assert_eq!(
+        c.ingest.dataset,
+        Some(datasets::ingest::DatasetKind::Cambridge)
+    );
     assert_eq!(c.import.segment_scale, 1.2);
     assert!(c.refine.is_none());
     let d = Pipeline::load(&dir.join("synthetic.toml")).unwrap();
@@ -267,7 +263,7 @@ fn shard_work_units_through_run() {
     run(
         &units,
         &RunOptions {
-            until: Some("refine".into()),
+            until: Some(StageName::Refine),
             ..RunOptions::default()
         },
     )
@@ -281,22 +277,34 @@ fn shard_work_units_through_run() {
             },
         )
         .unwrap();
-        let shard = report.stages.iter().find(|s| s.stage == "shard").unwrap();
+        let shard = report
+            .stages
+            .iter()
+            .find(|s| s.stage == StageName::Shard)
+            .unwrap();
         assert_eq!(shard.status, Status::Ran, "{}", report.table());
-        assert!(matches!(report.status("train"), Some(Status::Off(_))));
+        assert!(matches!(
+            report.status(StageName::Train),
+            Some(Status::Off(_))
+        ));
         shard.note.clone()
     };
     // The tiny scene has one training and one test shard.
     assert!(unit(1..2).contains("other units pending"));
-    assert!(!units.stage_dir("shard").join("manifest.json").exists());
+    assert!(
+        !units
+            .stage_dir(StageName::Shard)
+            .join("manifest.json")
+            .exists()
+    );
     assert!(unit(0..1).contains("the set is complete"));
-    let manifest = units.stage_dir("shard").join("manifest.json");
+    let manifest = units.stage_dir(StageName::Shard).join("manifest.json");
     let merged = std::fs::read(&manifest).unwrap();
     // One run over the whole plan, from the same inputs (the frames table holds the
     // work folder's paths, so the comparison stays in one folder).
-    std::fs::remove_dir_all(units.stage_dir("shard")).unwrap();
+    std::fs::remove_dir_all(units.stage_dir(StageName::Shard)).unwrap();
     let whole = run(&units, &quiet()).unwrap();
-    assert_eq!(whole.status("shard"), Some(&Status::Ran));
+    assert_eq!(whole.status(StageName::Shard), Some(&Status::Ran));
     assert_eq!(std::fs::read(&manifest).unwrap(), merged);
 }
 
@@ -312,8 +320,11 @@ fn label_ablation_in_one_run() {
     std::fs::write(&path, format!("{text}max_iterations = 300\n")).unwrap();
     let p = Pipeline::load_with_work(&path, Some(dir.path().join("w"))).unwrap();
     let a = pipeline::run_ablation(&p, &RunOptions::default()).unwrap();
-    assert_eq!(a.imported.status("import"), Some(&Status::Skipped));
-    assert!(matches!(a.imported.status("refine"), Some(Status::Off(_))));
+    assert_eq!(a.imported.status(StageName::Import), Some(&Status::Skipped));
+    assert!(matches!(
+        a.imported.status(StageName::Refine),
+        Some(Status::Off(_))
+    ));
     let imported = p.work.join("without-refine");
     for stage in ["shard", "train", "score"] {
         assert!(imported.join(stage).join("stage.json").is_file(), "{stage}");

@@ -5,7 +5,7 @@
 //! predicted points on night 1's sequences does not grow), the new sequence must be
 //! learned, and a third run with nothing new does nothing.
 
-use pipeline::{Pipeline, RunOptions, Status, run};
+use pipeline::{Pipeline, RunOptions, StageName, Status, run};
 use score::Summary;
 use std::path::{Path, PathBuf};
 
@@ -39,7 +39,7 @@ fn load(dir: &Path, text: &str) -> Pipeline {
 }
 
 fn summary(p: &Pipeline) -> Summary {
-    Summary::read_json(&p.stage_dir("score").join("summary.json")).unwrap()
+    Summary::read_json(&p.stage_dir(StageName::Score).join("summary.json")).unwrap()
 }
 
 /// Median distance between the model's points and the labels over the labelled
@@ -106,7 +106,7 @@ fn a_new_sequence_retrains_warm_and_the_score_does_not_get_worse() {
         r1.table()
     );
     let s1 = summary(&night1);
-    let model: PathBuf = night1.stage_dir("train").join("model.ckpt");
+    let model: PathBuf = night1.stage_dir(StageName::Train).join("model.ckpt");
     let model1 = std::fs::read(&model).unwrap();
     std::fs::write(dir.path().join("model1.ckpt"), &model1).unwrap();
 
@@ -122,13 +122,18 @@ fn a_new_sequence_retrains_warm_and_the_score_does_not_get_worse() {
         "{}",
         r2.table()
     );
-    let note = &r2.stages.iter().find(|s| s.stage == "train").unwrap().note;
+    let note = &r2
+        .stages
+        .iter()
+        .find(|s| s.stage == StageName::Train)
+        .unwrap()
+        .note;
     assert!(
         note.contains("warm start") && note.contains("150 iterations"),
         "{note}"
     );
     // The pipeline kept its own copy of the model it continued from.
-    let copy = std::fs::read(night2.stage_dir("train").join("warm-start.ckpt")).unwrap();
+    let copy = std::fs::read(night2.stage_dir(StageName::Train).join("warm-start.ckpt")).unwrap();
     assert_eq!(copy, model1);
     let s2 = summary(&night2);
     print("night 1", &s1);
@@ -139,7 +144,7 @@ fn a_new_sequence_retrains_warm_and_the_score_does_not_get_worse() {
     // 1's to above it. So no pose accuracy fraction may drop, and what the poses follow,
     // how close the predicted points are to the true 3D points, must not get worse on
     // the sequences night 1 trained on (test shards carry no labels).
-    let shard_dir = night2.stage_dir("shard");
+    let shard_dir = night2.stage_dir(StageName::Shard);
     let model1 = dir.path().join("model1.ckpt");
     let old = |name: &str| !name.starts_with("seq-05/");
     let old_before = median_label_error(&model1, &shard_dir, old);

@@ -58,8 +58,10 @@ pub enum ScoreError {
     Parquet {
         path: PathBuf,
         #[source]
-        source: polars::error::PolarsError,
+        source: tables::parquet::polars::error::PolarsError,
     },
+    #[error(transparent)]
+    Table(#[from] tables::TableError),
     #[error("{}: PNG: {source}", path.display())]
     Png {
         path: PathBuf,

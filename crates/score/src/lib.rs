@@ -1,4 +1,4 @@
-//! The score stage (specs/pl2map.md section 6): localise each frame of a shard folder
+//! The score stage (docs/method.md section 6): localise each frame of a shard folder
 //! from 2D-3D correspondences, with points only and with points + lines, and measure
 //! the poses against the ground truth.
 //!
@@ -29,6 +29,7 @@ pub mod network;
 pub mod oracle;
 pub mod plot;
 pub mod run;
+pub mod score_stage;
 pub mod summary;
 pub mod table;
 
@@ -41,4 +42,5 @@ pub use localiser::{
 pub use network::NetworkLocaliser;
 pub use oracle::OracleLocaliser;
 pub use run::{ScoreOutput, run};
+pub use score_stage::{ScoreStageConfig, ScoreStageOutput, Source};
 pub use summary::Summary;

@@ -2,7 +2,7 @@
 //! an upper bound of the network's accuracy and a check of the solvers.
 //!
 //! Which frames: the shard stage writes labels for training frames only (test frames
-//! have no SfM labels in real datasets, see `labels::shard`), so the oracle scores the
+//! have no SfM labels in real datasets, see `shards::shard_stage`), so the oracle scores the
 //! training shards and says so in the summary. Its ground truth is the pose the labels
 //! were made with (the shard's pose), so on exact labels (the synthetic scene) the
 //! errors measure the solvers and refinement alone. Building labels for test frames

@@ -5,7 +5,7 @@ use crate::error::ScoreError;
 use crate::evaluate::{FrameResult, ScoreConfig, Variant, score_frame};
 use crate::localiser::{Localiser, TestFrame, Timing, split_name};
 use crate::summary::{Summary, summarize_variant};
-use labels::shard::{MANIFEST_FILE, shards_of_split};
+use shards::{MANIFEST_FILE, shards_of_split};
 use shards::{Manifest, ShardReader, Split};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -29,13 +29,6 @@ pub struct ScoreOutput {
     pub files: Vec<PathBuf>,
 }
 
-fn frames_split(s: Split) -> datasets::frames::Split {
-    match s {
-        Split::Train => datasets::frames::Split::Train,
-        Split::Test => datasets::frames::Split::Test,
-    }
-}
-
 /// The shard files of `split` listed in the folder's complete manifest.
 pub fn shard_paths(shards_dir: &Path, split: Split) -> Result<Vec<PathBuf>, ScoreError> {
     let path = shards_dir.join(MANIFEST_FILE);
@@ -49,7 +42,7 @@ pub fn shard_paths(shards_dir: &Path, split: Split) -> Result<Vec<PathBuf>, Scor
             missing: manifest.missing_shards(),
         });
     }
-    let paths: Vec<PathBuf> = shards_of_split(&manifest, frames_split(split))
+    let paths: Vec<PathBuf> = shards_of_split(&manifest, split)
         .into_iter()
         .map(|s| shards_dir.join(&s.file))
         .collect();

@@ -161,6 +161,32 @@ fn fmt_thr(v: f64) -> String {
 
 impl Summary {
     /// The markdown report: settings, then one row per variant.
+    /// One line for a run table: per variant, the median translation error and the
+    /// fraction under 5 cm / 5 deg.
+    pub fn line(&self) -> String {
+        self.variants
+            .iter()
+            .map(|v| {
+                let acc = v
+                    .accuracy
+                    .iter()
+                    .find(|a| a.cm == 5.0 && a.deg == 5.0)
+                    .or(v.accuracy.last())
+                    .map(|a| {
+                        format!(
+                            "{:.1} % under {} cm / {} deg",
+                            100.0 * a.fraction,
+                            a.cm,
+                            a.deg
+                        )
+                    })
+                    .unwrap_or_default();
+                format!("{}: median {:.1} cm, {acc}", v.variant.label(), v.median_cm)
+            })
+            .collect::<Vec<_>>()
+            .join("; ")
+    }
+
     pub fn markdown(&self) -> String {
         let mut s = String::from("# pl2map score\n\n");
         s.push_str(&format!("- source: {}\n", self.source));

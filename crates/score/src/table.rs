@@ -18,9 +18,8 @@
 
 use crate::error::ScoreError;
 use crate::evaluate::{FrameResult, Variant};
-use polars::prelude::*;
-use std::io::Write;
 use std::path::Path;
+use tables::parquet::polars::prelude::*;
 
 pub const SOURCE_KEY: &str = "pl2map.score.source";
 pub const SPLIT_KEY: &str = "pl2map.score.split";
@@ -140,21 +139,14 @@ pub fn write_table(
         source,
     };
     let mut df = dataframe(results).map_err(pq)?;
-    let kv = KeyValueMetadata::from_static(vec![
-        (SOURCE_KEY.to_string(), source.to_string()),
-        (SPLIT_KEY.to_string(), split.to_string()),
-    ]);
-    let mut out = stage::AtomicFile::create(path)?;
-    ParquetWriter::new(out.file())
-        .with_compression(ParquetCompression::Zstd(None))
-        .with_key_value_metadata(Some(kv))
-        .finish(&mut df)
-        .map_err(pq)?;
-    out.flush().map_err(|source| ScoreError::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
-    out.commit()?;
+    tables::parquet::write_parquet(
+        path,
+        &mut df,
+        vec![
+            (SOURCE_KEY.to_string(), source.to_string()),
+            (SPLIT_KEY.to_string(), split.to_string()),
+        ],
+    )?;
     Ok(())
 }
 

@@ -4,43 +4,48 @@
 //! rerun must write the same bytes.
 
 use datasets::ingest::{self, DatasetKind, DepthOption, IngestConfig};
-use datasets::synth::{SynthConfig, generate};
 use labels::import::{self, ImportConfig};
-use labels::shard::{self, ShardStageConfig};
-use polars::prelude::*;
 use score::run::{PER_FRAME_FILE, PLOT_FILE, SUMMARY_JSON_FILE, SUMMARY_MD_FILE, results_file};
 use score::{OracleLocaliser, ScoreConfig, ScoreError, Variant};
+use shards::shard_stage::{self, ShardStageConfig};
 use std::path::{Path, PathBuf};
+use synth::{SynthConfig, WriteOptions, generate};
+use tables::parquet::polars::prelude::*;
 
 /// synth -> ingest -> import -> shard; returns the shard folder.
 fn prepare(root: &Path) -> PathBuf {
-    let synth = generate(&SynthConfig {
-        out: root.join("data"),
-        tiny: true,
-        ground_truth: true,
-        progress: false,
-        ..SynthConfig::default()
-    })
+    let synth = generate(
+        &SynthConfig {
+            tiny: true,
+            ..SynthConfig::default()
+        },
+        &WriteOptions {
+            progress: false,
+            ..WriteOptions::new(root.join("data"))
+        },
+    )
     .expect("synth");
     let scene = synth.root.clone();
     let mut ic = IngestConfig::new(DatasetKind::SevenScenes, &scene);
     ic.depth = DepthOption::Rendered(scene.clone());
     let frames = ingest::run(&ic, &root.join("frames"))
         .expect("ingest")
+        .output
         .frames_path;
-    import::run(
-        &ImportConfig::default(),
-        &frames,
-        &scene.join("sfm_gt/colmap"),
-        &scene.join("sfm_gt/limap"),
-        &root.join("labels"),
-    )
-    .expect("import");
+    let gt = scene.join(synth::gt::GT_DIR);
+    let imports = ImportConfig {
+        model: Some(gt.join("colmap")),
+        limap: Some(gt.join("limap")),
+        ..ImportConfig::default()
+    };
+    import::run(&imports, &frames, &root.join("labels")).expect("import");
     let shards = root.join("shards");
-    let mut sc = ShardStageConfig::default();
     // Several shards per split, so the reader crosses shard boundaries.
-    sc.shards.frames_per_shard = 10;
-    shard::run(&sc, &frames, &root.join("labels"), &shards, None).expect("shard");
+    let sc = ShardStageConfig {
+        frames_per_shard: 10,
+        ..ShardStageConfig::default()
+    };
+    shard_stage::run(&sc, &frames, &root.join("labels"), &shards, None).expect("shard");
     shards
 }
 

@@ -1,4 +1,5 @@
-//! MCAP label shards (DESIGN.md "Label shard (MCAP)").
+//! MCAP label shards (docs/formats.md, "Label shards") and the shard stage that writes
+//! them from the frames and label tables ([`shard_stage`]).
 //!
 //! A shard is one MCAP file holding up to `frames_per_shard` consecutive frames of a
 //! run, with zstd chunks and the full index (chunk indexes, message indexes,
@@ -29,6 +30,7 @@ mod plan;
 mod reader;
 mod record;
 pub mod schema;
+pub mod shard_stage;
 mod visual;
 mod writer;
 
@@ -40,6 +42,7 @@ pub use plan::{
 };
 pub use reader::{ReaderOptions, ShardFile, ShardReader};
 pub use record::{FrameRecord, ImageFormat, LabelSource, Split};
+pub use shard_stage::{MANIFEST_FILE, shards_of_split};
 pub use visual::{CAMERA_FRAME, LINES_ENTITY_ID, WORLD_FRAME, foxglove_distortion};
 pub use writer::{
     FRAME_PERIOD_NS, LIBRARY, SHARD_FORMAT_VERSION, SHARD_METADATA_NAME, ShardConfig, ShardInfo,

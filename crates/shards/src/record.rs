@@ -3,23 +3,7 @@
 use crate::error::ShardError;
 use geometry::{Camera, Pose};
 use serde::{Deserialize, Serialize};
-
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
-pub enum Split {
-    Train,
-    Test,
-}
-
-/// Where a frame's 3D labels come from.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
-pub enum LabelSource {
-    /// Triangulated by SfM (COLMAP points, LIMAP tracks).
-    Sfm,
-    /// SfM labels refined with depth.
-    DepthRefined,
-    /// Exact ground truth of a synthetic scene.
-    SyntheticExact,
-}
+pub use tables::{LabelSource, Split};
 
 /// Encoding of the image file, as foxglove.CompressedImage names it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]

@@ -1,23 +1,27 @@
-//! The mechanics every stage shares (DESIGN.md "Data flow"):
+//! The one stage runner (ARCHITECTURE.md, "The stage folder"):
+//! - [`Stage`]: a stage's folder, configuration hash and input hashes; it skips the
+//!   stage when the folder's record matches, else runs it and records what it wrote
+//!   ([`Outputs`]), and gives back a [`Done`] with the report line;
 //! - outputs are written to a temp file in the destination folder and renamed, so a
-//!   killed stage never leaves a partial file under the final name;
+//!   killed stage never leaves a partial file under the final name ([`AtomicFile`]);
 //! - content hashes (sha256, hex) of inputs, outputs and configurations;
-//! - `stage.json`: what a stage ran with and what it wrote; a stage whose record
-//!   matches its current inputs and config, and whose outputs are intact, is skipped;
+//! - `stage.json` ([`RECORD_FILE`], [`StageRecord`]): what a stage ran with and what it
+//!   wrote;
 //! - progress bars, hidden when stderr is not a terminal or when asked to be quiet.
 //!
-//! A separate crate (DESIGN.md lists one crate per concern and none for this) because
-//! every stage crate needs it and none of them should depend on another for it.
+//! Every stage crate depends on this one and on no other stage crate for it.
 
 mod atomic;
 mod hash;
 mod progress;
 mod record;
+mod runner;
 
 pub use atomic::{AtomicFile, write_atomic};
 pub use hash::{hash_config, sha256_bytes, sha256_file, sha256_files};
 pub use progress::{progress_bar, set_quiet};
-pub use record::{RecordCheck, StageRecord};
+pub use record::{RECORD_FILE, RecordCheck, StageRecord};
+pub use runner::{Done, Note, Outputs, Stage};
 
 use std::path::PathBuf;
 use thiserror::Error;
@@ -38,6 +42,8 @@ pub enum StageError {
     },
     #[error("cannot hash configuration: {0}")]
     Config(#[source] serde_json::Error),
+    #[error("{}: the path is not valid UTF-8", path.display())]
+    Path { path: PathBuf },
 }
 
 pub(crate) fn io_err(path: impl Into<PathBuf>) -> impl FnOnce(std::io::Error) -> StageError {

@@ -22,34 +22,52 @@ pub enum LrSchedule {
     Cosine,
 }
 
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+/// The train stage's configuration: `[train]` of a pipeline file, `pl2map train
+/// --config FILE` and the flags of `pl2map train` (the top-level settings; the nested
+/// sections come from a file); the only place its settings and defaults live.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, clap::Args)]
 #[serde(default, deny_unknown_fields)]
 pub struct TrainConfig {
     /// The network (D must be the front-end's descriptor size, 128 for SIFT).
+    #[arg(skip = TrainConfig::default().model)]
     pub model: ModelConfig,
+    #[arg(skip = TrainConfig::default().loss)]
     pub loss: LossConfig,
     /// The front-end: descriptors at training positions, and the whole detection path
     /// of the predictor (stored in every checkpoint so both sides agree).
+    #[arg(skip = TrainConfig::default().front_end)]
     pub front_end: FrontEndConfig,
     /// Keypoints the predictor keeps per query image (top-K by SIFT response).
+    #[arg(long, default_value_t = TrainConfig::default().query_max_keypoints)]
     pub query_max_keypoints: usize,
     /// One iteration = one Adam step on `batch_frames` images.
+    #[arg(long, default_value_t = TrainConfig::default().iterations)]
     pub iterations: u64,
     /// Images per step (their losses averaged). The reference uses 1 and 1.5 M steps; a
     /// step's images come from one region of the scene, and on a short CPU budget
     /// several images per step learn much faster (README "Training"). Images of equal
     /// size (the limits make most so) go through the network stacked, so a step of 8
     /// costs far less than 8 steps of 1.
+    #[arg(long, default_value_t = TrainConfig::default().batch_frames)]
     pub batch_frames: usize,
+    #[arg(long, default_value_t = TrainConfig::default().learning_rate)]
+    /// Adam's learning rate at the start.
     pub learning_rate: f64,
     /// How the learning rate falls from `learning_rate` to `learning_rate / 2^lr_halvings`.
+    #[arg(long, default_value_t = TrainConfig::default().lr_schedule)]
     pub lr_schedule: LrSchedule,
     /// The learning rate ends at `learning_rate / 2^lr_halvings`.
+    #[arg(long, default_value_t = TrainConfig::default().lr_halvings)]
     pub lr_halvings: u32,
     /// Write a checkpoint every N iterations (and always at the end).
+    #[arg(long, default_value_t = TrainConfig::default().checkpoint_every)]
     pub checkpoint_every: u64,
+    #[arg(long, default_value_t = TrainConfig::default().seed)]
+    /// Seed of the run (initial weights, order, augmentation, dropout).
     pub seed: u64,
+    #[arg(skip = TrainConfig::default().augment)]
     pub augment: AugmentConfig,
+    #[arg(skip = TrainConfig::default().limits)]
     pub limits: Limits,
     /// Frames in the stream's shuffle buffer. The default, 4096, holds a whole 7-Scenes or
     /// Cambridge training split, so every batch draws from the whole scene. A buffer much
@@ -59,17 +77,41 @@ pub struct TrainConfig {
     /// frames and 9.4 cm with 256 (all 200 training frames). The buffer holds frame ids
     /// only; what a large one costs is reads out of file order, which `chunk_cache_mib`
     /// absorbs.
+    #[arg(long, default_value_t = TrainConfig::default().shuffle_buffer)]
     pub shuffle_buffer: usize,
     /// Prepared samples kept ready by the background thread (at least two steps' worth,
     /// `2 * batch_frames`, whatever this says).
+    #[arg(long, default_value_t = TrainConfig::default().prefetch)]
     pub prefetch: usize,
     /// Memory for the descriptors of unaugmented images (MiB; 0: none): such a sample
     /// then needs no front-end call. Changes speed only, never values.
+    #[arg(long, default_value_t = TrainConfig::default().descriptor_cache_mib)]
     pub descriptor_cache_mib: usize,
     /// Memory for decompressed shard chunks (MiB): the shuffle buffer reads frames out
     /// of file order, and each read outside the cache decompresses a whole chunk
     /// (4 MiB by default) on the reader thread. Changes speed only, never values.
+    #[arg(long, default_value_t = TrainConfig::default().chunk_cache_mib)]
     pub chunk_cache_mib: usize,
+}
+
+impl std::fmt::Display for LrSchedule {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            LrSchedule::Steps => "steps",
+            LrSchedule::Cosine => "cosine",
+        })
+    }
+}
+
+impl std::str::FromStr for LrSchedule {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "steps" => Ok(LrSchedule::Steps),
+            "cosine" => Ok(LrSchedule::Cosine),
+            _ => Err(format!("expected steps or cosine, got {s:?}")),
+        }
+    }
 }
 
 impl Default for TrainConfig {

@@ -34,6 +34,8 @@ pub enum TrainError {
     Stream(String),
     #[error("image: {0}")]
     Image(String),
+    #[error(transparent)]
+    Stage(#[from] stage::StageError),
 }
 
 pub(crate) fn io_err(path: impl Into<PathBuf>) -> impl FnOnce(std::io::Error) -> TrainError {

@@ -3,7 +3,7 @@
 //! - [`stream`]: frames from shard files, seeded shuffle buffer across shards, prefetched
 //!   on a background thread; the order is a pure function of the seed and the epoch.
 //! - [`augment`]: brightness, contrast, scale, rotation about the principal point; the
-//!   keypoints, segments, intrinsics and pose follow the image (specs/pl2map.md section 5).
+//!   keypoints, segments, intrinsics and pose follow the image (docs/method.md section 5).
 //! - [`sample`]: shard frame (+ augmentation) -> [`model::Sample`], descriptors re-sampled
 //!   on the augmented image, per-sample limits.
 //! - [`trainer`]: the loop (Adam, learning rate halved k times), atomic checkpoints with an
@@ -22,10 +22,12 @@ pub mod seeds;
 pub mod stream;
 #[cfg(test)]
 mod testutil;
+pub mod train_stage;
 pub mod trainer;
 
 pub use config::{LrSchedule, TrainConfig};
 pub use error::TrainError;
 pub use predict::{ImagePrediction, PredictedLine, PredictedPoint, Predictor};
 pub use sample::Limits;
+pub use train_stage::{TrainOutput, TrainStageOptions};
 pub use trainer::{MeanLosses, RunOptions, TrainSummary, train, train_on};

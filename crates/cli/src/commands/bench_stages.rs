@@ -8,13 +8,13 @@
 //! below 1 means the stages together cost less than decoding the images would.
 
 use anyhow::{Context, bail};
-use datasets::ingest::{self, DatasetKind, DepthOption, IngestConfig, PoseOption};
-use datasets::synth::{SynthConfig, generate};
+use datasets::ingest::{self, DatasetKind, IngestConfig};
 use labels::import::{self, ImportConfig};
-use labels::shard::{self, ShardStageConfig};
 use rayon::prelude::*;
+use shards::shard_stage::{self, ShardStageConfig};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
+use synth::{SynthConfig, WriteOptions, generate};
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -23,7 +23,7 @@ pub struct Args {
     #[arg(long)]
     scene: Option<PathBuf>,
     /// Frames of the synthetic scene.
-    #[arg(long, default_value_t = datasets::synth::trajectory::DEFAULT_FRAMES)]
+    #[arg(long, default_value_t = synth::trajectory::DEFAULT_FRAMES)]
     frames: usize,
     /// Repetitions; the table shows the fastest.
     #[arg(long, default_value_t = 3)]
@@ -66,31 +66,25 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         Some(s) => s,
         None => {
             let cfg = SynthConfig {
-                out: tmp.path().join("dataset"),
                 frames: args.frames,
-                ground_truth: true,
                 ..SynthConfig::default()
             };
-            generate(&cfg)
+            generate(&cfg, &WriteOptions::new(tmp.path().join("dataset")))
                 .context("rendering the synthetic scene")?
                 .root
         }
     };
-    let (model, limap) = (scene.join("sfm_gt/colmap"), scene.join("sfm_gt/limap"));
+    let (model, limap) = (
+        scene.join(synth::gt::GT_DIR).join("colmap"),
+        scene.join(synth::gt::GT_DIR).join("limap"),
+    );
     if !model.is_dir() || !limap.is_dir() {
         bail!(
             "{} has no sfm_gt/colmap and sfm_gt/limap folders (write them with `pl2map synth`)",
             scene.display()
         );
     }
-    let ingest_cfg = IngestConfig {
-        dataset: DatasetKind::SevenScenes,
-        root: scene.clone(),
-        scene: None,
-        poses: PoseOption::Published,
-        depth: DepthOption::None,
-        camera: None,
-    };
+    let ingest_cfg = IngestConfig::new(DatasetKind::SevenScenes, &scene);
     let work = tmp.path().join("work");
     let (frames_dir, labels_dir, shards_dir) = (
         work.join("frames"),
@@ -99,16 +93,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     );
 
     // One untimed pass warms the page cache and yields the inputs of the later stages.
-    let frames = ingest::run(&ingest_cfg, &frames_dir)?;
-    let run_import = || {
-        import::run(
-            &ImportConfig::default(),
-            &frames.frames_path,
-            &model,
-            &limap,
-            &labels_dir,
-        )
+    let frames = ingest::run(&ingest_cfg, &frames_dir)?.output;
+    let import_cfg = ImportConfig {
+        model: Some(model),
+        limap: Some(limap),
+        ..ImportConfig::default()
     };
+    let run_import = || import::run(&import_cfg, &frames.frames_path, &labels_dir);
     run_import()?;
     let paths: Vec<PathBuf> = frames.table.frames.iter().map(|f| f.path.clone()).collect();
     let n = paths.len();
@@ -139,7 +130,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             name: "shard",
             seconds: best_of(args.repeat, || {
                 fresh(&shards_dir)?;
-                shard::run(
+                shard_stage::run(
                     &ShardStageConfig::default(),
                     &frames.frames_path,
                     &labels_dir,

@@ -2,61 +2,31 @@
 //! (`OUT/frames.parquet`, registered depth under `OUT/depth/`, `OUT/stage.json`).
 
 use anyhow::Context;
-use datasets::frames::{FramesTable, Split};
-use datasets::ingest::{self, DatasetKind, DepthOption, IngestConfig, PoseOption};
+use datasets::ingest::{self, IngestConfig};
 use std::path::PathBuf;
+use tables::frames::{FramesTable, Split};
 
 #[derive(clap::Args, Debug)]
 pub struct Args {
-    /// Dataset layout: 7scenes or cambridge.
-    #[arg(long)]
-    pub dataset: DatasetKind,
-    /// The scene folder (holding the split files), or the dataset folder with --scene.
-    #[arg(long)]
-    pub root: PathBuf,
-    /// Scene folder inside --root (e.g. stairs, KingsCollege).
-    #[arg(long)]
-    pub scene: Option<String>,
     /// Stage folder to write.
     #[arg(long)]
     pub out: PathBuf,
-    /// Colour camera poses (7-Scenes): published (pose.txt as is) or calibrated (moved to
-    /// the colour camera with the Kinect depth-to-RGB extrinsic).
-    #[arg(long, default_value = "published")]
-    pub poses: PoseOption,
-    /// Depth maps: none, raw (7-Scenes depth.png registered into the colour camera) or
-    /// rendered:DIR (rendered depth maps found by frame name).
-    #[arg(long, default_value = "none")]
-    pub depth: DepthOption,
-    /// Camera for every frame instead of the dataset's: "MODEL WIDTH HEIGHT PARAMS..."
-    /// (COLMAP order), e.g. "SIMPLE_PINHOLE 640 480 525 320 240".
-    #[arg(long)]
-    pub camera: Option<String>,
+    #[command(flatten)]
+    pub config: IngestConfig,
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let config = IngestConfig {
-        dataset: args.dataset,
-        root: args.root,
-        scene: args.scene,
-        poses: args.poses,
-        depth: args.depth,
-        camera: args.camera,
-    };
-    let output = ingest::run(&config, &args.out).with_context(|| {
+    let config = args.config;
+    let done = ingest::run(&config, &args.out).with_context(|| {
         format!(
             "ingesting {} ({})",
             config.scene_dir().display(),
-            config.dataset.name()
+            config.dataset.map_or("no dataset", |d| d.name())
         )
     })?;
-    let state = if output.skipped {
-        "up to date, skipped"
-    } else {
-        "written"
-    };
-    println!("{} ({state})", output.frames_path.display());
-    print!("{}", summary(&output.table));
+    println!("{}", done.line("ingest"));
+    println!("{}", done.output.frames_path.display());
+    print!("{}", summary(&done.output.table));
     Ok(())
 }
 

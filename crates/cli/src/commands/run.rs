@@ -12,16 +12,16 @@ pub struct Args {
     /// Work folder instead of the file's `work`.
     #[arg(long)]
     pub work: Option<PathBuf>,
-    /// Last stage to run: synth, ingest, import, refine, shard, train or score.
-    #[arg(long)]
-    pub until: Option<String>,
+    /// Last stage to run.
+    #[arg(long, value_enum)]
+    pub until: Option<pipeline::StageName>,
     /// One scene of a multi-scene dataset (a work unit): replaces `ingest.scene` and
     /// `${SCENE}` in the file's paths.
     #[arg(long)]
     pub scene: Option<String>,
     /// A work unit of the shard stage: shards a..b of its plan (end exclusive); the
     /// stages after it run once every unit is done.
-    #[arg(long, value_parser = parse_range)]
+    #[arg(long, value_parser = super::shard::parse_range)]
     pub shards: Option<Range<usize>>,
     /// Nightly retraining: continue from this model ([warm_start] says how many
     /// iterations) when the training shards changed since the last model.
@@ -31,22 +31,6 @@ pub struct Args {
     /// in <work>/without-refine/) and print both scores in one table.
     #[arg(long)]
     pub compare_refine: bool,
-}
-
-fn parse_range(s: &str) -> Result<Range<usize>, String> {
-    let (a, b) = s
-        .split_once("..")
-        .ok_or_else(|| format!("{s:?}: expected a..b (e.g. 0..4)"))?;
-    let num = |x: &str| {
-        x.trim()
-            .parse::<usize>()
-            .map_err(|e| format!("{s:?}: {x:?} is not a shard index: {e}"))
-    };
-    let r = num(a)?..num(b)?;
-    if r.start >= r.end {
-        return Err(format!("{s:?}: the range is empty"));
-    }
-    Ok(r)
 }
 
 pub fn run(args: Args, quiet: bool) -> anyhow::Result<()> {
@@ -85,29 +69,11 @@ pub fn run(args: Args, quiet: bool) -> anyhow::Result<()> {
         println!(
             "\nscore on the {} frames ({}):\n",
             summary.split,
-            p.stage_dir("score")
+            p.stage_dir(pipeline::StageName::Score)
                 .join(score::run::SUMMARY_MD_FILE)
                 .display()
         );
         print!("{}", summary.table());
     }
     Ok(())
-}
-
-#[cfg(test)]
-mod tests {
-    use super::parse_range;
-
-    #[test]
-    fn shard_ranges() {
-        assert_eq!(parse_range("0..4").unwrap(), 0..4);
-        assert_eq!(parse_range(" 2 .. 3").unwrap(), 2..3);
-        assert!(parse_range("3..3").unwrap_err().contains("empty"));
-        assert!(parse_range("4").unwrap_err().contains("expected a..b"));
-        assert!(
-            parse_range("a..2")
-                .unwrap_err()
-                .contains("not a shard index")
-        );
-    }
 }

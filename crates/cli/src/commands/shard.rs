@@ -4,7 +4,7 @@
 //! plan writes `manifest.json`).
 
 use anyhow::Context;
-use labels::shard::{self, ShardStageConfig};
+use shards::shard_stage::{self, ShardStageConfig};
 use std::ops::Range;
 use std::path::PathBuf;
 
@@ -19,41 +19,33 @@ pub struct Args {
     /// Stage folder to write.
     #[arg(long)]
     pub out: PathBuf,
-    /// Frames per shard file.
-    #[arg(long, default_value_t = 500)]
-    pub frames_per_shard: usize,
     /// Write only shards a..b of the run's plan (training shards first, then test).
     #[arg(long, value_parser = parse_range)]
     pub shards: Option<Range<usize>>,
-    /// Leave the test frames out.
-    #[arg(long)]
-    pub no_test: bool,
-    /// zstd level of the chunks (1-22).
-    #[arg(long, default_value_t = 3)]
-    pub zstd_level: u32,
+    #[command(flatten)]
+    pub config: ShardStageConfig,
 }
 
-fn parse_range(s: &str) -> Result<Range<usize>, String> {
+/// `a..b` (end exclusive, not empty): a range of shard indexes.
+pub fn parse_range(s: &str) -> Result<Range<usize>, String> {
     let (a, b) = s
         .split_once("..")
-        .ok_or_else(|| format!("expected a..b, got {s:?}"))?;
-    let a: usize = a.parse().map_err(|_| format!("bad start {a:?} in {s:?}"))?;
-    let b: usize = b.parse().map_err(|_| format!("bad end {b:?} in {s:?}"))?;
-    if a > b {
-        return Err(format!("empty range {s:?}"));
+        .ok_or_else(|| format!("{s:?}: expected a..b (e.g. 0..4)"))?;
+    let num = |x: &str| {
+        x.trim()
+            .parse::<usize>()
+            .map_err(|e| format!("{s:?}: {x:?} is not a shard index: {e}"))
+    };
+    let r = num(a)?..num(b)?;
+    if r.start >= r.end {
+        return Err(format!("{s:?}: the range is empty"));
     }
-    Ok(a..b)
+    Ok(r)
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let mut config = ShardStageConfig {
-        include_test: !args.no_test,
-        ..ShardStageConfig::default()
-    };
-    config.shards.frames_per_shard = args.frames_per_shard;
-    config.shards.zstd_level = args.zstd_level;
-    let output = shard::run(
-        &config,
+    let done = shard_stage::run(
+        &args.config,
         &args.frames,
         &args.labels,
         &args.out,
@@ -66,23 +58,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             args.labels.display()
         )
     })?;
+    let output = &done.output;
     let m = &output.manifest;
-    let written = m.shards.len() - output.reused.len();
-    let state = if output.skipped {
-        "up to date, skipped".to_string()
-    } else if output.reused.is_empty() {
-        "written".to_string()
-    } else {
-        format!(
-            "{written} written, {} kept: their frames did not change",
-            output.reused.len()
-        )
-    };
+    println!("{}", done.line("shard"));
     println!(
-        "{}: {} shard(s), {} frame(s) ({state}); plan: {} shards, {} frames{}",
+        "{}: plan: {} shards, {} frames{}",
         args.out.display(),
-        m.shards.len(),
-        m.shards.iter().map(|s| s.frame_count).sum::<u64>(),
         m.planned_shards,
         m.planned_frames,
         if output.complete {
@@ -108,4 +89,22 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         );
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::parse_range;
+
+    #[test]
+    fn shard_ranges() {
+        assert_eq!(parse_range("0..4").unwrap(), 0..4);
+        assert_eq!(parse_range(" 2 .. 3").unwrap(), 2..3);
+        assert!(parse_range("3..3").unwrap_err().contains("empty"));
+        assert!(parse_range("4").unwrap_err().contains("expected a..b"));
+        assert!(
+            parse_range("a..2")
+                .unwrap_err()
+                .contains("not a shard index")
+        );
+    }
 }

@@ -39,7 +39,7 @@ pub fn verify(args: VerifyArgs, quiet: bool) -> anyhow::Result<()> {
 pub fn lock(args: LockArgs, quiet: bool) -> anyhow::Result<()> {
     let p = pipeline::Pipeline::load(&args.pipeline)?;
     let options = pipeline::RunOptions {
-        until: Some("shard".into()),
+        until: Some(pipeline::StageName::Shard),
         progress: !quiet,
         ..Default::default()
     };

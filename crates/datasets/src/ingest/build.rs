@@ -5,11 +5,11 @@ use super::config::{DatasetKind, DepthOption, PoseOption};
 use super::error::{IngestError, Result};
 use super::plan::{Plan, PlannedFrame, PoseSource};
 use super::{camera_spec, depth, sevenscenes};
-use crate::frames::{Frame, FramesTable, IngestMeta};
 use geometry::{Camera, CameraModel};
 use rayon::prelude::*;
 use std::collections::BTreeMap;
 use std::path::Path;
+use tables::frames::{Frame, FramesTable, IngestMeta};
 
 pub(super) struct InputHashes {
     /// Category -> hash over (name, content hash) of its files, sorted by name.

@@ -5,7 +5,7 @@ use super::camera_spec;
 use super::error::{IngestError, Result};
 use geometry::Camera;
 use serde::{Deserialize, Serialize};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::str::FromStr;
 
 /// Which dataset layout to read.
@@ -63,9 +63,8 @@ impl FromStr for PoseOption {
     }
 }
 
-/// Which depth maps the table points to.
-#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
+/// Which depth maps the table points to. Written as `none`, `raw` or `rendered:DIR`.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub enum DepthOption {
     #[default]
     None,
@@ -92,48 +91,121 @@ impl FromStr for DepthOption {
     }
 }
 
-/// What to ingest. Serde struct: it is embedded in pipeline TOML files.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+impl DepthOption {
+    pub fn is_none(&self) -> bool {
+        *self == DepthOption::None
+    }
+}
+
+impl std::fmt::Display for DepthOption {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            DepthOption::None => f.write_str("none"),
+            DepthOption::Raw => f.write_str("raw"),
+            DepthOption::Rendered(d) => write!(f, "rendered:{}", d.display()),
+        }
+    }
+}
+
+impl Serialize for DepthOption {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> std::result::Result<S::Ok, S::Error> {
+        s.collect_str(self)
+    }
+}
+
+impl<'de> Deserialize<'de> for DepthOption {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
+        let text = String::deserialize(d)?;
+        text.parse().map_err(serde::de::Error::custom)
+    }
+}
+
+impl std::fmt::Display for DatasetKind {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl std::fmt::Display for PoseOption {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            PoseOption::Published => "published",
+            PoseOption::Calibrated => "calibrated",
+        })
+    }
+}
+
+/// The ingest stage's configuration: `[ingest]` of a pipeline file and the flags of
+/// `pl2map ingest`, the only place its settings and defaults live.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize, clap::Args)]
+#[serde(default, deny_unknown_fields)]
 pub struct IngestConfig {
-    pub dataset: DatasetKind,
+    /// Dataset layout: 7scenes or cambridge (a pipeline with [synth] takes its scene's).
+    #[arg(long, required = true)]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub dataset: Option<DatasetKind>,
     /// The dataset folder. With `scene`, the scene is `root/scene`; without, `root` is
     /// the scene folder itself (the one holding the split files).
-    pub root: PathBuf,
-    #[serde(default)]
+    #[arg(long, required = true)]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub root: Option<PathBuf>,
+    /// Scene folder inside the root (chess, KingsCollege ...).
+    #[arg(long)]
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub scene: Option<String>,
-    #[serde(default)]
+    /// Which pose the colour camera gets: published (the dataset's) or calibrated
+    /// (7-Scenes: moved to the colour camera with the Kinect extrinsic).
+    #[arg(long, default_value_t = PoseOption::default())]
     pub poses: PoseOption,
-    #[serde(default)]
+    /// Depth maps of the frames: none, raw (7-Scenes: registered into the colour
+    /// camera) or rendered:DIR (maps rendered in the colour camera, found by name).
+    #[arg(long, default_value_t = DepthOption::default())]
+    #[serde(skip_serializing_if = "DepthOption::is_none")]
     pub depth: DepthOption,
     /// A camera for every frame, `MODEL WIDTH HEIGHT PARAMS...` (COLMAP order), instead
     /// of the dataset's default intrinsics.
-    #[serde(default)]
+    #[arg(long)]
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub camera: Option<String>,
 }
 
 impl IngestConfig {
     pub fn new(dataset: DatasetKind, root: impl Into<PathBuf>) -> Self {
         IngestConfig {
-            dataset,
-            root: root.into(),
-            scene: None,
-            poses: PoseOption::default(),
-            depth: DepthOption::default(),
-            camera: None,
+            dataset: Some(dataset),
+            root: Some(root.into()),
+            ..IngestConfig::default()
         }
     }
 
+    /// The dataset layout, or the error that names the missing setting.
+    pub fn dataset(&self) -> Result<DatasetKind> {
+        self.dataset.ok_or_else(|| {
+            IngestError::Config(
+                "no dataset: give --dataset 7scenes|cambridge ([ingest] dataset)".into(),
+            )
+        })
+    }
+
+    /// The dataset folder, or the error that names the missing setting.
+    pub fn root(&self) -> Result<&Path> {
+        self.root.as_deref().ok_or_else(|| {
+            IngestError::Config("no dataset folder: give --root DIR ([ingest] root)".into())
+        })
+    }
+
     pub fn scene_dir(&self) -> PathBuf {
+        let root = self.root.clone().unwrap_or_default();
         match &self.scene {
-            Some(s) => self.root.join(s),
-            None => self.root.clone(),
+            Some(s) => root.join(s),
+            None => root,
         }
     }
 
     /// Checks option combinations; returns the camera override, parsed.
     pub(super) fn validate(&self) -> Result<Option<Camera>> {
-        let cambridge = self.dataset == DatasetKind::Cambridge;
+        let cambridge = self.dataset()? == DatasetKind::Cambridge;
+        self.root()?;
         if cambridge && self.poses == PoseOption::Calibrated {
             return Err(IngestError::Config(
                 "poses = calibrated applies to 7-Scenes only (Cambridge has one pose source)"
@@ -179,7 +251,7 @@ mod tests {
         c.depth = DepthOption::Rendered("/r".into());
         let json = serde_json::to_string(&c).unwrap();
         assert!(json.contains(r#""dataset":"7scenes""#), "{json}");
-        assert!(json.contains(r#""depth":{"rendered":"/r"}"#), "{json}");
+        assert!(json.contains(r#""depth":"rendered:/r""#), "{json}");
         let back: IngestConfig = serde_json::from_str(&json).unwrap();
         assert_eq!(back, c);
         let minimal: IngestConfig =

@@ -1,6 +1,6 @@
-use crate::frames::FramesError;
 use geometry::GeometryError;
 use std::path::PathBuf;
+use tables::TableError;
 use thiserror::Error;
 
 /// Everything that can go wrong while ingesting a dataset. Each variant about an input
@@ -83,7 +83,7 @@ pub enum IngestError {
     #[error("invalid ingest configuration: {0}")]
     Config(String),
     #[error(transparent)]
-    Frames(#[from] FramesError),
+    Table(#[from] TableError),
     #[error(transparent)]
     Stage(#[from] stage::StageError),
 }

@@ -5,10 +5,10 @@
 use super::config::{DatasetKind, DepthOption, IngestConfig, PoseOption};
 use super::error::{IngestError, Result, io_err};
 use super::{cambridge, depth, nvm, sevenscenes};
-use crate::frames::{ExcludedFrame, Split};
 use geometry::{Camera, Pose};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
+use tables::frames::{ExcludedFrame, Split};
 
 /// Where a frame's pose comes from.
 #[derive(Clone, Debug)]
@@ -84,13 +84,13 @@ pub(super) fn plan(config: &IngestConfig) -> Result<Plan> {
         _ => None,
     };
     let mut normalised_config = config.clone();
-    normalised_config.root = scene_dir.clone();
+    normalised_config.root = Some(scene_dir.clone());
     normalised_config.scene = None;
     if let Some(d) = &rendered {
         normalised_config.depth = DepthOption::Rendered(d.clone());
     }
     let mut plan = Plan {
-        kind: config.dataset,
+        kind: config.dataset()?,
         scene,
         scene_dir,
         depth: normalised_config.depth.clone(),
@@ -101,7 +101,7 @@ pub(super) fn plan(config: &IngestConfig) -> Result<Plan> {
         scene_inputs: Vec::new(),
         normalised_config,
     };
-    match config.dataset {
+    match plan.kind {
         DatasetKind::SevenScenes => plan_seven_scenes(&mut plan, rendered.as_deref())?,
         DatasetKind::Cambridge => plan_cambridge(&mut plan, rendered.as_deref())?,
     }

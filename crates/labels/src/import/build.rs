@@ -6,13 +6,13 @@ use super::report::ImportReport;
 use super::{ImportConfig, ImportError};
 use crate::align::{AlignedBy, align_endpoints};
 use crate::stats::Spread;
-use crate::tables::{LabelSource, LabelTables, LineRow, PointRow, PoseRow, PoseSource};
 use colmap::Reconstruction;
-use datasets::frames::{Frame, FramesTable, Split};
 use geometry::Camera;
 use geometry::metrics::pose_error;
 use limap::LimapDir;
 use std::collections::{BTreeSet, HashMap};
+use tables::frames::{Frame, FramesTable, Split};
+use tables::labels::{LabelSource, LabelTables, LineRow, PointRow, PoseRow, PoseSource};
 
 /// What went wrong with one source (model or LIMAP) image name.
 enum NameProblem {

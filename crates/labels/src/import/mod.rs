@@ -1,6 +1,6 @@
 //! The import stage: COLMAP model + LIMAP folder + frames table -> label tables.
 //!
-//! Per training frame (specs/pl2map.md section 3):
+//! Per training frame (docs/method.md section 3):
 //! - points: every keypoint of the image in the model (COLMAP points2D, COLMAP pixels),
 //!   its point3D id and xyz, or no label;
 //! - lines: every segment of LIMAP's `segments_<LIMAP image id>.txt` (times
@@ -13,7 +13,7 @@
 //! for LIMAP's image_list.txt). Inconsistent input is refused with every problem listed
 //! ([`ImportProblem`]); the disagreement between SfM and dataset poses is reported.
 //!
-//! Stage folder: `points.parquet`, `lines.parquet`, `poses.parquet` ([`crate::tables`]),
+//! Stage folder: `points.parquet`, `lines.parquet`, `poses.parquet` (`tables::labels`),
 //! `import_report.json`, `stage.json`. A rerun with the same configuration and inputs
 //! (content hashes of the frames table, of the model's files and of the LIMAP files
 //! read) is skipped.
@@ -29,47 +29,74 @@ pub use report::{
 };
 
 use crate::names::NameMapping;
-use crate::parquet::TableError;
-use crate::tables::{LINES_FILE, POINTS_FILE, POSES_FILE, PoseSource};
-use datasets::frames::{FramesError, FramesTable};
 use limap::{LimapDir, LimapDirOptions};
 use serde::{Deserialize, Serialize};
-use stage::{RecordCheck, StageRecord};
+use stage::{Done, Stage};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
+use tables::frames::FramesTable;
+use tables::labels::{LINES_FILE, POINTS_FILE, POSES_FILE, PoseSource};
+use tables::parquet::TableError;
 use thiserror::Error;
 
 pub const STAGE: &str = "import";
 pub const REPORT_FILE: &str = "import_report.json";
 
-/// What the import does; hashed into the stage record.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+/// The import stage's configuration: `[import]` of a pipeline file and the flags of
+/// `pl2map import`, the only place its settings and defaults live. The two input
+/// folders are part of it; the record hashes their content, not their paths.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, clap::Args)]
+#[serde(default, deny_unknown_fields)]
 pub struct ImportConfig {
-    /// COLMAP image name -> frames table name.
+    /// COLMAP model folder (cameras/images/points3D, .bin or .txt), e.g. hloc's
+    /// `sfm_superpoint+superglue/` (a pipeline with [synth] takes its scene's).
+    #[arg(long, required = true)]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub model: Option<PathBuf>,
+    /// LIMAP output folder (image_list.txt, finaltracks/, line_detections/*/segments/).
+    #[arg(long, required = true)]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub limap: Option<PathBuf>,
+    /// COLMAP image name -> frames table name: `identity` or rules
+    /// `strip_prefix=P,add_prefix=P,replace_extension=.jpg:.png`.
+    #[arg(long, default_value = "identity", value_parser = NameMapping::parse_rules)]
     pub model_names: NameMapping,
-    /// LIMAP image_list.txt name -> frames table name.
+    /// LIMAP image_list.txt name -> frames table name (same rules).
+    #[arg(long, default_value = "identity", value_parser = NameMapping::parse_rules)]
     pub limap_names: NameMapping,
+    /// Camera and pose of the labels: sfm (the model's, as the reference implementation)
+    /// or dataset (the frames table's).
+    #[arg(long, default_value_t = ImportConfig::default().pose_source)]
     pub pose_source: PoseSource,
     /// Test frames found in the model or in LIMAP are skipped (true) or refused (false,
     /// the default: labels made with test images leak them into training).
+    #[arg(long, default_value_t = ImportConfig::default().allow_test_images, action = clap::ArgAction::Set)]
     pub allow_test_images: bool,
     /// LIMAP segment coordinates times this are pixels of the image (LIMAP detects on
     /// images resized to `max_image_dim`, 1600 by default: for a 1920-wide image the
     /// scale is 1920 / 1600 = 1.2).
+    #[arg(long, default_value_t = ImportConfig::default().segment_scale)]
     pub segment_scale: f64,
     /// How far outside the image (pixels) a keypoint or segment endpoint may lie before
     /// the input is refused (it would mean another resolution or camera).
+    #[arg(long, default_value_t = ImportConfig::default().bounds_tolerance_px)]
     pub bounds_tolerance_px: f64,
-    /// The LIMAP segments folder, relative to the LIMAP folder; None: the only one of
+    /// The LIMAP segments folder, relative to the LIMAP folder; default: the only one of
     /// `line_detections/*/segments` and `segments`.
+    #[arg(long)]
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub limap_segments: Option<PathBuf>,
-    /// The LIMAP track folder, relative to the LIMAP folder; None: `finaltracks`.
+    /// The LIMAP track folder, relative to the LIMAP folder; default: `finaltracks`.
+    #[arg(long)]
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub limap_tracks: Option<PathBuf>,
 }
 
 impl Default for ImportConfig {
     fn default() -> Self {
         ImportConfig {
+            model: None,
+            limap: None,
             model_names: NameMapping::identity(),
             limap_names: NameMapping::identity(),
             pose_source: PoseSource::Sfm,
@@ -83,6 +110,27 @@ impl Default for ImportConfig {
 }
 
 impl ImportConfig {
+    /// The settings without the input folders: what the record and the report hash
+    /// (the inputs are hashed by content).
+    pub fn settings(&self) -> ImportConfig {
+        ImportConfig {
+            model: None,
+            limap: None,
+            ..self.clone()
+        }
+    }
+
+    /// The COLMAP model and LIMAP folders, or the error naming the missing one.
+    pub fn inputs(&self) -> Result<(&Path, &Path), ImportError> {
+        let model = self.model.as_deref().ok_or_else(|| {
+            ImportError::Config("no COLMAP model: give --model DIR ([import] model)".into())
+        })?;
+        let limap = self.limap.as_deref().ok_or_else(|| {
+            ImportError::Config("no LIMAP folder: give --limap DIR ([import] limap)".into())
+        })?;
+        Ok((model, limap))
+    }
+
     pub fn validate(&self) -> Result<(), ImportError> {
         if !(self.segment_scale.is_finite() && self.segment_scale > 0.0) {
             return Err(ImportError::Config(format!(
@@ -102,8 +150,6 @@ impl ImportConfig {
 
 #[derive(Debug, Error)]
 pub enum ImportError {
-    #[error("frames table: {0}")]
-    Frames(#[from] FramesError),
     #[error("COLMAP model {}: {source}", dir.display())]
     Colmap {
         dir: PathBuf,
@@ -145,8 +191,12 @@ impl ImportError {
 #[derive(Clone, Debug)]
 pub struct ImportOutput {
     pub report: ImportReport,
-    /// The record matched: nothing was recomputed.
-    pub skipped: bool,
+}
+
+impl stage::Note for ImportOutput {
+    fn note(&self) -> String {
+        self.report.note()
+    }
 }
 
 /// Files of a COLMAP model directory in the format `colmap::read` uses, sorted.
@@ -221,16 +271,16 @@ fn limap_options(config: &ImportConfig, limap_dir: &Path) -> LimapDirOptions {
     }
 }
 
-/// Runs the import stage into `out` (see the module docs); skipped when its record
-/// matches.
+/// Runs the import stage into `out` through the stage runner (see the module docs);
+/// skipped when its record matches.
 pub fn run(
     config: &ImportConfig,
     frames_path: &Path,
-    model_dir: &Path,
-    limap_dir: &Path,
     out: &Path,
-) -> Result<ImportOutput, ImportError> {
+) -> Result<Done<ImportOutput>, ImportError> {
     config.validate()?;
+    let (model_dir, limap_dir) = config.inputs()?;
+    let config = &config.settings();
     let frames_sha256 = stage::sha256_file(frames_path)?;
     let model_files = model_files(model_dir)?;
     // Reading LIMAP's folder fixes which segments and tracks folders are used (and
@@ -242,58 +292,36 @@ pub fn run(
         "model".into(),
         stage::sha256_files(model_dir, model_files.iter().map(String::as_str))?,
     );
-    let config_hash = stage::hash_config(config)?;
-    if StageRecord::check(out, STAGE, &config_hash, &inputs)? == RecordCheck::UpToDate {
-        let path = out.join(REPORT_FILE);
-        let bytes = std::fs::read(&path).map_err(|source| ImportError::Io {
-            path: path.clone(),
-            source,
-        })?;
-        let report = serde_json::from_slice(&bytes).map_err(|e| ImportError::Io {
-            path,
-            source: std::io::Error::new(std::io::ErrorKind::InvalidData, e),
-        })?;
-        return Ok(ImportOutput {
-            report,
-            skipped: true,
-        });
-    }
-
-    let frames = FramesTable::read_parquet(frames_path)?;
-    let model = colmap::read(model_dir).map_err(|source| ImportError::Colmap {
-        dir: model_dir.to_path_buf(),
-        source,
-    })?;
-    let (tables, report) = build(config, &frames, &frames_sha256, &model, &limap)?;
-
-    std::fs::create_dir_all(out).map_err(|source| ImportError::Io {
-        path: out.to_path_buf(),
-        source,
-    })?;
-    // The old record goes first: from here until the new one is written, the folder
-    // does not claim to be complete.
-    remove_record(out)?;
-    tables.write(out)?;
-    let mut json = serde_json::to_vec_pretty(&report)
-        .map_err(|e| ImportError::Config(format!("cannot encode the import report: {e}")))?;
-    json.push(b'\n');
-    stage::write_atomic(out.join(REPORT_FILE), &json)?;
-    let mut record = StageRecord::new(STAGE, config_hash, inputs);
-    for f in [POINTS_FILE, LINES_FILE, POSES_FILE, REPORT_FILE] {
-        record.add_output(out, f)?;
-    }
-    record.save(out)?;
-    Ok(ImportOutput {
-        report,
-        skipped: false,
-    })
-}
-
-pub(crate) fn remove_record(dir: &Path) -> Result<(), stage::StageError> {
-    let path = dir.join("stage.json");
-    match std::fs::remove_file(&path) {
-        Ok(()) => Ok(()),
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(()),
-        Err(source) => Err(stage::StageError::Io { path, source }),
-    }
+    Stage::new(STAGE, out, config, inputs)?.run(
+        |dir| {
+            let path = dir.join(REPORT_FILE);
+            let bytes = std::fs::read(&path).map_err(|source| ImportError::Io {
+                path: path.clone(),
+                source,
+            })?;
+            let report = serde_json::from_slice(&bytes).map_err(|e| ImportError::Io {
+                path,
+                source: std::io::Error::new(std::io::ErrorKind::InvalidData, e),
+            })?;
+            Ok(ImportOutput { report })
+        },
+        |outputs| {
+            let frames = FramesTable::read_parquet(frames_path)?;
+            let model = colmap::read(model_dir).map_err(|source| ImportError::Colmap {
+                dir: model_dir.to_path_buf(),
+                source,
+            })?;
+            let (tables, report) = build(config, &frames, &frames_sha256, &model, &limap)?;
+            tables.write(outputs.dir())?;
+            for f in [POINTS_FILE, LINES_FILE, POSES_FILE] {
+                outputs.path(f);
+            }
+            let mut json = serde_json::to_vec_pretty(&report).map_err(|e| {
+                ImportError::Config(format!("cannot encode the import report: {e}"))
+            })?;
+            json.push(b'\n');
+            outputs.write(REPORT_FILE, &json)?;
+            Ok(ImportOutput { report })
+        },
+    )
 }

@@ -110,6 +110,18 @@ fn num(v: f64, scale: f64, decimals: usize) -> String {
 
 impl ImportReport {
     /// The short table printed after an import.
+    /// One line: the labelled points and lines of the training frames.
+    pub fn note(&self) -> String {
+        format!(
+            "{} training frames: {} of {} keypoints and {} of {} segments labelled",
+            self.train_frames,
+            self.points.valid,
+            self.points.keypoints,
+            self.lines.valid,
+            self.lines.segments
+        )
+    }
+
     pub fn table(&self) -> String {
         let p = &self.points;
         let l = &self.lines;

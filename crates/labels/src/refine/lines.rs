@@ -5,13 +5,13 @@ use super::fit::{principal_line, ransac_line};
 use super::report::{KindReport, Outcome, Tally};
 use crate::align::align_endpoints;
 use crate::depth::{DepthMap, back_project};
-use crate::tables::{LineRow, PoseRow};
 use geometry::{Vector2, Vector3};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 use std::collections::{BTreeMap, HashMap};
 use std::ops::Range;
+use tables::labels::{LineRow, PoseRow};
 
 /// The back-projected samples of one support: candidate sets, the depth read on the
 /// segment first, then (for segments on an occluding edge) the depth of each side

@@ -1,5 +1,5 @@
 //! The refine stage (optional): moves SfM labels onto the depth maps of the training
-//! frames (specs/pl2map.md section 8).
+//! frames (docs/method.md section 8).
 //!
 //! Points: each observation of a 3D point in a training frame with a depth map reads
 //! the depth at the observation (bilinear, nearest-neighbour fallback; see
@@ -46,15 +46,14 @@ pub use fit::{Fit, Line3, principal_line, ransac_line};
 pub use report::{KindReport, RefineReport};
 
 use crate::depth::{DepthError, DepthMap};
-use crate::import::remove_record;
-use crate::parquet::TableError;
-use crate::tables::{LINES_FILE, LabelSource, LabelTables, POINTS_FILE, POSES_FILE, PoseRow};
-use datasets::frames::{FramesError, FramesTable, Split};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
-use stage::{RecordCheck, StageRecord};
+use stage::{Done, Stage};
 use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
+use tables::frames::{FramesTable, Split};
+use tables::labels::{LINES_FILE, LabelSource, LabelTables, POINTS_FILE, POSES_FILE, PoseRow};
+use tables::parquet::TableError;
 use thiserror::Error;
 
 pub const STAGE: &str = "refine";
@@ -71,6 +70,15 @@ pub enum PointSampling {
     Projection,
 }
 
+impl std::fmt::Display for PointSampling {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            PointSampling::Keypoint => "keypoint",
+            PointSampling::Projection => "projection",
+        })
+    }
+}
+
 impl std::str::FromStr for PointSampling {
     type Err = String;
     fn from_str(s: &str) -> Result<Self, String> {
@@ -82,30 +90,45 @@ impl std::str::FromStr for PointSampling {
     }
 }
 
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+/// The refine stage's configuration: `[refine]` of a pipeline file and the flags of
+/// `pl2map refine`, the only place its settings and defaults live (metres, pixels).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, clap::Args)]
 // Missing keys take the defaults; unknown keys are refused (pipeline files are typed).
 #[serde(default, deny_unknown_fields)]
 pub struct RefineConfig {
+    /// Where point depth is read: keypoint (the 2D measurement) or projection (of the
+    /// current 3D label, the upstream tool).
+    #[arg(long, default_value_t = RefineConfig::default().point_sampling)]
     pub point_sampling: PointSampling,
     /// Observations of a point farther than this (metres) from the median are rejected.
+    #[arg(long, default_value_t = RefineConfig::default().point_inlier_threshold_m)]
     pub point_inlier_threshold_m: f64,
     /// Depth beyond this (metres) is invalid (upstream: 1000).
+    #[arg(long, default_value_t = RefineConfig::default().max_depth_m)]
     pub max_depth_m: f64,
     /// RANSAC inlier distance of line samples to a 3D line (metres).
+    #[arg(long, default_value_t = RefineConfig::default().line_inlier_threshold_m)]
     pub line_inlier_threshold_m: f64,
     /// Fraction of a support's valid samples that must be inliers (upstream: 0.9).
+    #[arg(long, default_value_t = RefineConfig::default().line_min_inlier_ratio)]
     pub line_min_inlier_ratio: f64,
     /// Distance between depth samples along a segment (pixels).
+    #[arg(long, default_value_t = RefineConfig::default().line_sample_spacing_px)]
     pub line_sample_spacing_px: f64,
     /// Samples per segment: at least this many (short segments)...
+    #[arg(long, default_value_t = RefineConfig::default().line_min_samples)]
     pub line_min_samples: usize,
     /// ... and at most this many (long ones).
+    #[arg(long, default_value_t = RefineConfig::default().line_max_samples)]
     pub line_max_samples: usize,
     /// A support needs this many samples with valid depth (upstream: 7).
+    #[arg(long, default_value_t = RefineConfig::default().line_min_valid_samples)]
     pub line_min_valid_samples: usize,
     /// RANSAC iterations at most (fewer when the inlier ratio allows).
+    #[arg(long, default_value_t = RefineConfig::default().ransac_iterations)]
     pub ransac_iterations: usize,
     /// Seed of the RANSAC draws (each track draws from its own seeded stream).
+    #[arg(long, default_value_t = RefineConfig::default().seed)]
     pub seed: u64,
 }
 
@@ -165,8 +188,6 @@ impl RefineConfig {
 
 #[derive(Debug, Error)]
 pub enum RefineError {
-    #[error("frames table: {0}")]
-    Frames(#[from] FramesError),
     #[error(transparent)]
     Table(#[from] TableError),
     #[error(transparent)]
@@ -203,7 +224,16 @@ pub enum RefineError {
 #[derive(Clone, Debug)]
 pub struct RefineOutput {
     pub report: RefineReport,
-    pub skipped: bool,
+}
+
+impl stage::Note for RefineOutput {
+    fn note(&self) -> String {
+        let (p, l) = (&self.report.points, &self.report.lines);
+        format!(
+            "{} of {} point labels and {} of {} line labels kept",
+            p.kept, p.labels, l.kept, l.labels
+        )
+    }
 }
 
 /// A training frame's camera, pose and (loaded on demand) depth map.
@@ -338,7 +368,7 @@ pub fn run(
     frames_path: &Path,
     labels_dir: &Path,
     out: &Path,
-) -> Result<RefineOutput, RefineError> {
+) -> Result<Done<RefineOutput>, RefineError> {
     config.validate()?;
     let frames_sha256 = stage::sha256_file(frames_path)?;
     let frames = FramesTable::read_parquet(frames_path)?;
@@ -350,7 +380,7 @@ pub fn run(
             current: frames_sha256,
         });
     }
-    let train: HashMap<u32, &datasets::frames::Frame> = frames
+    let train: HashMap<u32, &tables::frames::Frame> = frames
         .frames
         .iter()
         .filter(|f| f.split == Split::Train)
@@ -385,42 +415,32 @@ pub fn run(
             stage::sha256_file(&labels_dir.join(f))?,
         );
     }
-    let config_hash = stage::hash_config(config)?;
-    if StageRecord::check(out, STAGE, &config_hash, &inputs)? == RecordCheck::UpToDate {
-        let path = out.join(REPORT_FILE);
-        let io = |source| RefineError::Io {
-            path: path.clone(),
-            source,
-        };
-        let bytes = std::fs::read(&path).map_err(io)?;
-        let report = serde_json::from_slice(&bytes)
-            .map_err(|e| io(std::io::Error::new(std::io::ErrorKind::InvalidData, e)))?;
-        return Ok(RefineOutput {
-            report,
-            skipped: true,
-        });
-    }
-
-    let depth_paths: HashMap<u32, PathBuf> =
-        depth.into_iter().map(|(id, (_, p))| (id, p)).collect();
-    let (refined, report) = refine(config, &labels, &depth_paths, units)?;
-    std::fs::create_dir_all(out).map_err(|source| RefineError::Io {
-        path: out.to_path_buf(),
-        source,
-    })?;
-    remove_record(out)?;
-    refined.write(out)?;
-    let mut json = serde_json::to_vec_pretty(&report)
-        .map_err(|e| RefineError::Config(format!("cannot encode the refine report: {e}")))?;
-    json.push(b'\n');
-    stage::write_atomic(out.join(REPORT_FILE), &json)?;
-    let mut record = StageRecord::new(STAGE, config_hash, inputs);
-    for f in [POINTS_FILE, LINES_FILE, POSES_FILE, REPORT_FILE] {
-        record.add_output(out, f)?;
-    }
-    record.save(out)?;
-    Ok(RefineOutput {
-        report,
-        skipped: false,
-    })
+    Stage::new(STAGE, out, config, inputs)?.run(
+        |dir| {
+            let path = dir.join(REPORT_FILE);
+            let io = |source| RefineError::Io {
+                path: path.clone(),
+                source,
+            };
+            let bytes = std::fs::read(&path).map_err(io)?;
+            let report = serde_json::from_slice(&bytes)
+                .map_err(|e| io(std::io::Error::new(std::io::ErrorKind::InvalidData, e)))?;
+            Ok(RefineOutput { report })
+        },
+        |outputs| {
+            let depth_paths: HashMap<u32, PathBuf> =
+                depth.into_iter().map(|(id, (_, p))| (id, p)).collect();
+            let (refined, report) = refine(config, &labels, &depth_paths, units)?;
+            refined.write(outputs.dir())?;
+            for f in [POINTS_FILE, LINES_FILE, POSES_FILE] {
+                outputs.path(f);
+            }
+            let mut json = serde_json::to_vec_pretty(&report).map_err(|e| {
+                RefineError::Config(format!("cannot encode the refine report: {e}"))
+            })?;
+            json.push(b'\n');
+            outputs.write(REPORT_FILE, &json)?;
+            Ok(RefineOutput { report })
+        },
+    )
 }

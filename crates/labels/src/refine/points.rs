@@ -4,10 +4,10 @@ use super::report::{KindReport, Outcome, Tally};
 use super::{PointSampling, RefineConfig};
 use crate::depth::{DepthMap, back_project};
 use crate::stats::{dist3, median3};
-use crate::tables::{PointRow, PoseRow};
 use geometry::{Vector2, Vector3};
 use std::collections::{BTreeMap, HashMap};
 use std::ops::Range;
+use tables::labels::{PointRow, PoseRow};
 
 /// Back-projected observations of one frame: (row, world point, or None when the
 /// frame's depth map has no valid depth there). Empty for frames without depth.

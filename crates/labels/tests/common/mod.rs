@@ -6,13 +6,13 @@
 #![allow(dead_code)]
 
 use colmap::{CameraRecord, Point2D, Point3D, Reconstruction, TrackElement};
-use datasets::frames::{Frame, FramesTable, IngestMeta, Split};
 use geometry::{Camera, CameraModel, Pose, UnitQuaternion, Vector2, Vector3};
 use limap::{ImageList, LineTrack, Segments};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
+use tables::frames::{Frame, FramesTable, IngestMeta, Split};
 
 /// Half extents of the room: x in [-2, 2], y in [-1.5, 1.5] (y down, floor at +1.5),
 /// z in [-2, 2].
@@ -202,6 +202,18 @@ pub fn write_depth(path: &Path, pose: &Pose, cam: &Camera, noise_mm: f64, seed: 
 }
 
 impl Scene {
+    /// `config` reading this scene's COLMAP model and LIMAP folder.
+    pub fn with_inputs(
+        &self,
+        config: &labels::import::ImportConfig,
+    ) -> labels::import::ImportConfig {
+        labels::import::ImportConfig {
+            model: Some(self.model_dir.clone()),
+            limap: Some(self.limap_dir.clone()),
+            ..config.clone()
+        }
+    }
+
     pub fn build(opts: &SceneOptions) -> Scene {
         let dir = tempfile::tempdir().unwrap();
         let root = dir.path().to_path_buf();

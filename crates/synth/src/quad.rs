@@ -30,7 +30,7 @@ pub struct Quad {
     pub normal: Vector3<f64>,
     /// Lengths along `u` and `v` in metres.
     pub size: [f64; 2],
-    /// Index into [`crate::synth::Scene::objects`].
+    /// Index into [`crate::Scene::objects`].
     pub object: u32,
     pub surface: Surface,
     /// Index of the quad's own texture (texture coordinates are `(a, b)` in metres).

@@ -1,7 +1,10 @@
-//! Parquet files through polars: atomic, deterministic writing with key-value metadata,
-//! and column accessors that turn a wrong type or a null into an error naming the file,
-//! the column and the row.
+//! The one parquet helper of the workspace (polars): atomic, deterministic writing with
+//! key-value metadata, and column accessors that turn a missing column, a wrong type or
+//! a null into an error naming the file, the column and the row.
 
+/// The polars this helper is built with, for crates that build their own tables (one
+/// polars in the workspace).
+pub use polars;
 use polars::prelude::*;
 use std::collections::BTreeMap;
 use std::io::Write;
@@ -36,18 +39,14 @@ pub enum TableError {
 }
 
 /// Writes `df` to `path` through a temp file and a rename. Zstd pages; polars writes no
-/// time stamp, so the same frame gives the same bytes.
-pub(crate) fn write_parquet(
+/// time stamp, so the same frame gives the same bytes. The key-value metadata is written
+/// in the order given (it is part of the bytes).
+pub fn write_parquet(
     path: &Path,
     df: &mut DataFrame,
-    metadata: &BTreeMap<String, String>,
+    metadata: Vec<(String, String)>,
 ) -> Result<(), TableError> {
-    let kv = KeyValueMetadata::from_static(
-        metadata
-            .iter()
-            .map(|(k, v)| (k.clone(), v.clone()))
-            .collect(),
-    );
+    let kv = KeyValueMetadata::from_static(metadata);
     let mut out = stage::AtomicFile::create(path)?;
     ParquetWriter::new(out.file())
         .with_compression(ParquetCompression::Zstd(None))
@@ -66,9 +65,7 @@ pub(crate) fn write_parquet(
 }
 
 /// Reads a parquet file and its key-value metadata.
-pub(crate) fn read_parquet(
-    path: &Path,
-) -> Result<(DataFrame, BTreeMap<String, String>), TableError> {
+pub fn read_parquet(path: &Path) -> Result<(DataFrame, BTreeMap<String, String>), TableError> {
     let file = std::fs::File::open(path).map_err(|source| TableError::Io {
         path: path.to_path_buf(),
         source,
@@ -93,7 +90,7 @@ pub(crate) fn read_parquet(
 }
 
 /// A list[f64] column from per-row slices (typed even when empty).
-pub(crate) fn f64_list_column(name: &str, rows: impl Iterator<Item = Vec<f64>>) -> Column {
+pub fn f64_list_column(name: &str, rows: impl Iterator<Item = Vec<f64>>) -> Column {
     let series: Vec<Option<Series>> = rows
         .map(|v| Some(Series::new(PlSmallStr::EMPTY, v)))
         .collect();
@@ -104,7 +101,8 @@ pub(crate) fn f64_list_column(name: &str, rows: impl Iterator<Item = Vec<f64>>) 
     ca.into_series().with_name(name.into()).into_column()
 }
 
-pub(crate) struct Cols<'a> {
+/// Typed, checked access to the columns of a table read from `path`.
+pub struct Cols<'a> {
     pub df: &'a DataFrame,
     pub path: &'a Path,
 }
@@ -179,6 +177,15 @@ impl<'a> Cols<'a> {
             .bool()
             .map_err(|e| self.wrong_type(name, e))?;
         self.required(name, ca.iter().collect())
+    }
+
+    /// A nullable string column.
+    pub fn opt_strs(&self, name: &str) -> Result<Vec<Option<String>>, TableError> {
+        let ca = self
+            .col(name)?
+            .str()
+            .map_err(|e| self.wrong_type(name, e))?;
+        Ok(ca.iter().map(|v| v.map(str::to_string)).collect())
     }
 
     pub fn strs(&self, name: &str) -> Result<Vec<String>, TableError> {

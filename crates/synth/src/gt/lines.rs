@@ -3,8 +3,8 @@
 
 use super::GtConfig;
 use super::frame::{FrameObservations, SegmentObs, pixel_ray};
-use crate::synth::generate::SynthDataset;
-use crate::synth::scene::Scene;
+use crate::generate::SynthDataset;
+use crate::scene::Scene;
 use geometry::{Camera, Pose, Vector2, Vector3};
 use std::collections::BTreeMap;
 
@@ -220,7 +220,7 @@ mod tests {
 
     #[test]
     fn edges_behind_the_camera_are_clipped() {
-        let cam = crate::synth::default_camera();
+        let cam = crate::default_camera();
         let pose = Pose::identity();
         let a = Vector3::new(0.0, 0.0, -1.0);
         let b = Vector3::new(0.0, 0.5, 3.0);

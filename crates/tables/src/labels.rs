@@ -60,6 +60,8 @@ pub enum LabelSource {
     Sfm,
     /// Moved onto depth maps by the refine stage.
     DepthRefined,
+    /// The exact ground truth of a synthetic scene.
+    SyntheticExact,
 }
 
 impl LabelSource {
@@ -67,6 +69,7 @@ impl LabelSource {
         match self {
             LabelSource::Sfm => "sfm",
             LabelSource::DepthRefined => "depth-refined",
+            LabelSource::SyntheticExact => "synthetic-exact",
         }
     }
 
@@ -74,14 +77,8 @@ impl LabelSource {
         match s {
             "sfm" => Some(LabelSource::Sfm),
             "depth-refined" => Some(LabelSource::DepthRefined),
+            "synthetic-exact" => Some(LabelSource::SyntheticExact),
             _ => None,
-        }
-    }
-
-    pub fn to_shards(self) -> shards::LabelSource {
-        match self {
-            LabelSource::Sfm => shards::LabelSource::Sfm,
-            LabelSource::DepthRefined => shards::LabelSource::DepthRefined,
         }
     }
 }
@@ -111,6 +108,12 @@ impl PoseSource {
             "dataset" => Some(PoseSource::Dataset),
             _ => None,
         }
+    }
+}
+
+impl std::fmt::Display for PoseSource {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.as_str())
     }
 }
 
@@ -172,8 +175,9 @@ fn opt(v: Option<[f64; 3]>, k: usize) -> Option<f64> {
 }
 
 impl LabelTables {
-    fn metadata(&self) -> BTreeMap<String, String> {
-        BTreeMap::from([
+    /// The key-value metadata, in the order it is written (sorted by key).
+    fn metadata(&self) -> Vec<(String, String)> {
+        let sorted = BTreeMap::from([
             (VERSION_KEY.to_string(), TABLE_VERSION.to_string()),
             (SOURCE_KEY.to_string(), self.source.as_str().to_string()),
             (FRAMES_KEY.to_string(), self.frames_sha256.clone()),
@@ -181,7 +185,8 @@ impl LabelTables {
                 POSE_SOURCE_KEY.to_string(),
                 self.pose_source.as_str().to_string(),
             ),
-        ])
+        ]);
+        sorted.into_iter().collect()
     }
 
     /// Sorts every table by its key (frame id, then index).
@@ -328,13 +333,13 @@ impl LabelTables {
         let polars_err = |path: PathBuf| move |source| TableError::Polars { path, source };
         let path = dir.join(POINTS_FILE);
         let mut df = self.points_dataframe().map_err(polars_err(path.clone()))?;
-        write_parquet(&path, &mut df, &meta)?;
+        write_parquet(&path, &mut df, meta.clone())?;
         let path = dir.join(LINES_FILE);
         let mut df = self.lines_dataframe().map_err(polars_err(path.clone()))?;
-        write_parquet(&path, &mut df, &meta)?;
+        write_parquet(&path, &mut df, meta.clone())?;
         let path = dir.join(POSES_FILE);
         let mut df = self.poses_dataframe().map_err(polars_err(path.clone()))?;
-        write_parquet(&path, &mut df, &meta)?;
+        write_parquet(&path, &mut df, meta.clone())?;
         Ok(())
     }
 
@@ -673,7 +678,7 @@ mod tests {
         let mut other = tables();
         other.source = LabelSource::DepthRefined;
         let mut df = other.lines_dataframe().unwrap();
-        write_parquet(&dir.path().join(LINES_FILE), &mut df, &other.metadata()).unwrap();
+        write_parquet(&dir.path().join(LINES_FILE), &mut df, other.metadata()).unwrap();
         let e = LabelTables::read(dir.path()).unwrap_err().to_string();
         assert!(e.contains("not from one run"), "{e}");
     }

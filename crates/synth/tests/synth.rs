@@ -1,16 +1,16 @@
 //! Integration tests of the synthetic scene: exact geometry, layouts, determinism.
 
-use datasets::synth::layout::{format_pose_txt, seven_scenes_names};
-use datasets::synth::render::{NO_SURFACE, SAMPLES};
-use datasets::synth::texture::luma;
-use datasets::synth::trajectory::{CLEARANCE_M, HEIGHT_RANGE_M, plan_frames, plan_sequences};
-use datasets::synth::{
-    EdgeKind, Layout, Scene, Split, SynthConfig, SynthDataset, SynthError, generate,
-};
 use geometry::{Camera, CameraModel, Pose};
 use nalgebra::{Matrix4, Vector2, Vector3};
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
+use synth::layout::{format_pose_txt, seven_scenes_names};
+use synth::render::{NO_SURFACE, SAMPLES};
+use synth::texture::luma;
+use synth::trajectory::{CLEARANCE_M, HEIGHT_RANGE_M, plan_frames, plan_sequences};
+use synth::{
+    EdgeKind, Layout, Scene, Split, SynthConfig, SynthDataset, SynthError, WriteOptions, generate,
+};
 
 const SEED: u64 = 7;
 
@@ -347,20 +347,29 @@ fn files(root: &Path) -> Vec<PathBuf> {
     out
 }
 
-fn generate_in_pool(threads: usize, out: &Path, layout: Layout) -> datasets::synth::SynthOutput {
+fn quiet(out: &Path) -> WriteOptions {
+    WriteOptions {
+        progress: false,
+        ..WriteOptions::new(out)
+    }
+}
+
+fn generate_in_pool(threads: usize, out: &Path, layout: Layout) -> synth::SynthOutput {
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
         .unwrap();
     pool.install(|| {
-        generate(&SynthConfig {
-            out: out.to_path_buf(),
-            seed: SEED,
-            tiny: true,
-            layout,
-            progress: false,
-            ..SynthConfig::default()
-        })
+        generate(
+            &SynthConfig {
+                seed: SEED,
+                tiny: true,
+                layout,
+                ground_truth: false,
+                ..SynthConfig::default()
+            },
+            &quiet(out),
+        )
         .unwrap()
     })
 }
@@ -404,13 +413,15 @@ fn seven_scenes_layout_is_byte_identical_for_any_thread_count() {
     assert_eq!(rgb.to_rgb8().as_raw(), r.rgb.as_raw());
     assert_eq!(depth.to_luma16().as_raw(), r.depth_mm().as_raw());
     // Written again into the same place: refused, then replaced with overwrite.
-    let again = generate(&SynthConfig {
-        out: d1.path().to_path_buf(),
-        seed: SEED,
-        tiny: true,
-        progress: false,
-        ..SynthConfig::default()
-    });
+    let again = generate(
+        &SynthConfig {
+            seed: SEED,
+            tiny: true,
+            ground_truth: false,
+            ..SynthConfig::default()
+        },
+        &quiet(d1.path()),
+    );
     assert!(matches!(again, Err(SynthError::OutputExists(_))));
 }
 

@@ -1,5 +1,5 @@
 //! The frames table: one row per image of a dataset, as the ingest stage writes it and
-//! every later stage reads it (DESIGN.md "Data flow").
+//! every later stage reads it (ARCHITECTURE.md, "Data flow").
 //!
 //! Stored as parquet through polars. Columns, in order:
 //!
@@ -21,13 +21,12 @@
 //! it is then written in the same atomic rename as the rows it describes and can never
 //! drift from them, and any parquet reader shows it (pyarrow: `read_metadata(f).metadata`).
 
+use crate::parquet::{Cols, TableError, read_parquet, write_parquet};
 use geometry::{Camera, CameraModel, Pose, UnitQuaternion, Vector3};
 use nalgebra::Quaternion;
 use polars::prelude::*;
 use serde::{Deserialize, Serialize};
-use std::io::Write;
 use std::path::{Path, PathBuf};
-use thiserror::Error;
 
 /// Key of the JSON-encoded [`IngestMeta`] in the parquet key-value metadata.
 pub const META_KEY: &str = "pl2map.frames.meta";
@@ -121,44 +120,17 @@ pub struct FramesTable {
     pub meta: IngestMeta,
 }
 
-#[derive(Debug, Error)]
-pub enum FramesError {
-    #[error("{path}: {source}")]
-    Io {
-        path: PathBuf,
-        #[source]
-        source: std::io::Error,
-    },
-    #[error("{path}: parquet: {source}")]
-    Polars {
-        path: PathBuf,
-        #[source]
-        source: PolarsError,
-    },
-    #[error("{path}: {message}")]
-    Invalid { path: PathBuf, message: String },
-    #[error("{path}: row {row} ({column}): {message}")]
-    Row {
-        path: PathBuf,
-        row: usize,
-        column: &'static str,
-        message: String,
-    },
-    #[error(transparent)]
-    Stage(#[from] stage::StageError),
-}
-
 /// The table stores normalised quaternions: anything further from unit norm was not
 /// written by [`FramesTable::write_parquet`].
 const UNIT_QUATERNION_TOLERANCE: f64 = 1e-9;
 
 const POSE_COLUMNS: [&str; 7] = ["qw", "qx", "qy", "qz", "tx", "ty", "tz"];
 
-fn path_str<'a>(p: &'a Path, file: &Path, row: usize) -> Result<&'a str, FramesError> {
-    p.to_str().ok_or_else(|| FramesError::Row {
+fn path_str<'a>(p: &'a Path, file: &Path, row: usize) -> Result<&'a str, TableError> {
+    p.to_str().ok_or_else(|| TableError::Row {
         path: file.to_path_buf(),
         row,
-        column: "path",
+        column: "path".into(),
         message: format!("path {} is not valid UTF-8", p.display()),
     })
 }
@@ -170,10 +142,10 @@ impl FramesTable {
     }
 
     /// The table as a polars DataFrame (columns as in the module docs).
-    pub fn to_dataframe(&self, file_for_errors: &Path) -> Result<DataFrame, FramesError> {
+    pub fn to_dataframe(&self, file_for_errors: &Path) -> Result<DataFrame, TableError> {
         let n = self.frames.len();
         let f = &self.frames;
-        let polars_err = |source| FramesError::Polars {
+        let polars_err = |source| TableError::Polars {
             path: file_for_errors.to_path_buf(),
             source,
         };
@@ -245,60 +217,30 @@ impl FramesTable {
 
     /// Writes the table to `path` atomically (temp file in the same folder, fsync,
     /// rename). Same table => same bytes.
-    pub fn write_parquet(&self, path: &Path) -> Result<(), FramesError> {
+    pub fn write_parquet(&self, path: &Path) -> Result<(), TableError> {
         let mut df = self.to_dataframe(path)?;
-        let meta = serde_json::to_string(&self.meta).map_err(|e| FramesError::Invalid {
+        let meta = serde_json::to_string(&self.meta).map_err(|e| TableError::Invalid {
             path: path.to_path_buf(),
             message: format!("cannot encode the table metadata: {e}"),
         })?;
-        let kv = KeyValueMetadata::from_static(vec![
-            (VERSION_KEY.to_string(), TABLE_VERSION.to_string()),
-            (META_KEY.to_string(), meta),
-        ]);
-        let mut out = stage::AtomicFile::create(path)?;
-        ParquetWriter::new(out.file())
-            .with_compression(ParquetCompression::Zstd(None))
-            .with_key_value_metadata(Some(kv))
-            .finish(&mut df)
-            .map_err(|source| FramesError::Polars {
-                path: path.to_path_buf(),
-                source,
-            })?;
-        out.flush().map_err(|source| FramesError::Io {
-            path: path.to_path_buf(),
-            source,
-        })?;
-        out.commit()?;
-        Ok(())
+        write_parquet(
+            path,
+            &mut df,
+            vec![
+                (VERSION_KEY.to_string(), TABLE_VERSION.to_string()),
+                (META_KEY.to_string(), meta),
+            ],
+        )
     }
 
     /// Reads a table written by [`FramesTable::write_parquet`], checking every value.
-    pub fn read_parquet(path: &Path) -> Result<FramesTable, FramesError> {
-        let file = std::fs::File::open(path).map_err(|source| FramesError::Io {
-            path: path.to_path_buf(),
-            source,
-        })?;
-        let polars_err = |source| FramesError::Polars {
-            path: path.to_path_buf(),
-            source,
-        };
-        let invalid = |message: String| FramesError::Invalid {
+    pub fn read_parquet(path: &Path) -> Result<FramesTable, TableError> {
+        let invalid = |message: String| TableError::Invalid {
             path: path.to_path_buf(),
             message,
         };
-        let mut reader = ParquetReader::new(file);
-        let kv = reader
-            .get_metadata()
-            .map_err(polars_err)?
-            .key_value_metadata()
-            .clone()
-            .unwrap_or_default();
-        let lookup = |key: &str| {
-            kv.iter()
-                .find(|e| e.key == key)
-                .and_then(|e| e.value.clone())
-        };
-        match lookup(VERSION_KEY) {
+        let (df, kv) = read_parquet(path)?;
+        match kv.get(VERSION_KEY) {
             Some(v) if v == TABLE_VERSION => {}
             Some(v) => {
                 return Err(invalid(format!(
@@ -311,124 +253,34 @@ impl FramesTable {
                 )));
             }
         }
-        let meta_json = lookup(META_KEY)
+        let meta_json = kv
+            .get(META_KEY)
             .ok_or_else(|| invalid(format!("no {META_KEY} key in the parquet metadata")))?;
-        let meta: IngestMeta = serde_json::from_str(&meta_json)
+        let meta: IngestMeta = serde_json::from_str(meta_json)
             .map_err(|e| invalid(format!("{META_KEY} is not valid: {e}")))?;
-        let df = reader.finish().map_err(polars_err)?;
         let frames = frames_from_dataframe(&df, path)?;
         Ok(FramesTable { frames, meta })
     }
 }
 
-/// Column accessors that turn a wrong type or a null into an error naming the column.
-struct Cols<'a> {
-    df: &'a DataFrame,
-    path: &'a Path,
-}
-
-impl<'a> Cols<'a> {
-    fn col(&self, name: &'static str) -> Result<&'a Column, FramesError> {
-        self.df.column(name).map_err(|_| FramesError::Invalid {
-            path: self.path.to_path_buf(),
-            message: format!("missing column {name}"),
-        })
-    }
-
-    fn wrong_type(&self, name: &'static str, e: PolarsError) -> FramesError {
-        FramesError::Invalid {
-            path: self.path.to_path_buf(),
-            message: format!("column {name}: {e}"),
-        }
-    }
-
-    fn null(&self, row: usize, column: &'static str) -> FramesError {
-        FramesError::Row {
-            path: self.path.to_path_buf(),
-            row,
-            column,
-            message: "null value".into(),
-        }
-    }
-
-    fn u32s(&self, name: &'static str) -> Result<Vec<u32>, FramesError> {
-        let ca = self
-            .col(name)?
-            .u32()
-            .map_err(|e| self.wrong_type(name, e))?;
-        ca.iter()
-            .enumerate()
-            .map(|(row, v)| v.ok_or_else(|| self.null(row, name)))
-            .collect()
-    }
-
-    fn f64s(&self, name: &'static str) -> Result<Vec<f64>, FramesError> {
-        let ca = self
-            .col(name)?
-            .f64()
-            .map_err(|e| self.wrong_type(name, e))?;
-        ca.iter()
-            .enumerate()
-            .map(|(row, v)| v.ok_or_else(|| self.null(row, name)))
-            .collect()
-    }
-
-    fn strs(&self, name: &'static str) -> Result<Vec<Option<String>>, FramesError> {
-        let ca = self
-            .col(name)?
-            .str()
-            .map_err(|e| self.wrong_type(name, e))?;
-        Ok(ca.iter().map(|v| v.map(str::to_string)).collect())
-    }
-
-    fn required_strs(&self, name: &'static str) -> Result<Vec<String>, FramesError> {
-        self.strs(name)?
-            .into_iter()
-            .enumerate()
-            .map(|(row, v)| v.ok_or_else(|| self.null(row, name)))
-            .collect()
-    }
-
-    fn params(&self) -> Result<Vec<Vec<f64>>, FramesError> {
-        const NAME: &str = "camera_params";
-        let ca = self
-            .col(NAME)?
-            .list()
-            .map_err(|e| self.wrong_type(NAME, e))?;
-        let mut out = Vec::with_capacity(ca.len());
-        for (row, s) in ca.amortized_iter().enumerate() {
-            let s = s.ok_or_else(|| self.null(row, NAME))?;
-            let values = s.as_ref().f64().map_err(|e| self.wrong_type(NAME, e))?;
-            let v: Option<Vec<f64>> = values.iter().collect();
-            out.push(v.ok_or_else(|| self.null(row, NAME))?);
-        }
-        Ok(out)
-    }
-}
-
-fn frames_from_dataframe(df: &DataFrame, path: &Path) -> Result<Vec<Frame>, FramesError> {
+fn frames_from_dataframe(df: &DataFrame, path: &Path) -> Result<Vec<Frame>, TableError> {
     let c = Cols { df, path };
     let ids = c.u32s("id")?;
-    let names = c.required_strs("name")?;
-    let paths = c.required_strs("path")?;
-    let splits = c.required_strs("split")?;
-    let models = c.required_strs("camera_model")?;
+    let names = c.strs("name")?;
+    let paths = c.strs("path")?;
+    let splits = c.strs("split")?;
+    let models = c.strs("camera_model")?;
     let widths = c.u32s("width")?;
     let heights = c.u32s("height")?;
-    let params = c.params()?;
+    let params = c.f64_lists("camera_params")?;
     let mut pose_cols = Vec::with_capacity(7);
     for name in POSE_COLUMNS {
         pose_cols.push(c.f64s(name)?);
     }
-    let depths = c.strs("depth_path")?;
-    let hashes = c.required_strs("content_hash")?;
+    let depths = c.opt_strs("depth_path")?;
+    let hashes = c.strs("content_hash")?;
 
-    let row_err = |row: usize, column: &'static str, message: String| FramesError::Row {
-        path: path.to_path_buf(),
-        row,
-        column,
-        message,
-    };
+    let row_err = |row: usize, column: &str, message: String| c.row_error(row, column, message);
     let mut frames = Vec::with_capacity(ids.len());
     for row in 0..ids.len() {
         if row > 0 && ids[row] <= ids[row - 1] {
@@ -570,7 +422,7 @@ mod tests {
         std::fs::write(&p, b"not parquet at all").unwrap();
         assert!(matches!(
             FramesTable::read_parquet(&p),
-            Err(FramesError::Polars { .. })
+            Err(TableError::Polars { .. })
         ));
     }
 }

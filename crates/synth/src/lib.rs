@@ -22,11 +22,14 @@ pub mod preview;
 pub mod quad;
 pub mod render;
 pub mod scene;
+pub mod synth_stage;
 pub mod texture;
 pub mod trajectory;
 
 pub use error::{Result, SynthError};
-pub use generate::{FrameInfo, SynthConfig, SynthDataset, SynthOutput, generate};
+pub use generate::{
+    FrameInfo, SynthConfig, SynthDataset, SynthOutput, WriteOptions, color_name, generate,
+};
 pub use layout::Layout;
 pub use preview::contact_sheet;
 pub use quad::{Aabb, Quad, Surface};

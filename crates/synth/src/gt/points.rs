@@ -3,7 +3,7 @@
 
 use super::GtConfig;
 use super::frame::{DESCRIPTOR_SCALE, FrameObservations};
-use crate::synth::generate::SynthDataset;
+use crate::generate::SynthDataset;
 use geometry::{Camera, Pose, Vector2, Vector3};
 use std::collections::HashMap;
 

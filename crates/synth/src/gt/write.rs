@@ -5,7 +5,7 @@ use super::error::GtError;
 use super::noise::{LabelNoise, noise_seed, sigma_per_coordinate_m};
 use super::points::reprojection_error;
 use super::{GroundTruth, GtConfig};
-use crate::synth::generate::SynthDataset;
+use crate::generate::SynthDataset;
 use colmap::{CameraRecord, INVALID_POINT3D_ID, Point2D, Point3D, Reconstruction, TrackElement};
 use geometry::Vector3;
 use limap::{ImageList, LineTrack, Segments};

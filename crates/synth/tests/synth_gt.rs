@@ -2,12 +2,12 @@
 //! through the colmap and limap crates (and pycolmap where available), determinism and
 //! label noise. All on the tiny scene.
 
-use datasets::synth::gt::{EXACT_FILE, GT_DIR};
-use datasets::synth::{Split, SynthConfig, SynthOutput, generate};
 use geometry::{Pose, Vector2, Vector3};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
+use synth::gt::{EXACT_FILE, GT_DIR};
+use synth::{Split, SynthConfig, SynthOutput, generate};
 
 const SEED: u64 = 3;
 
@@ -22,15 +22,18 @@ fn generate_tiny(dir: &Path, threads: usize, noise_cm: f64) -> SynthOutput {
         .build()
         .unwrap();
     pool.install(|| {
-        generate(&SynthConfig {
-            out: dir.to_path_buf(),
-            seed: SEED,
-            tiny: true,
-            progress: false,
-            ground_truth: true,
-            label_noise_cm: noise_cm,
-            ..SynthConfig::default()
-        })
+        generate(
+            &SynthConfig {
+                seed: SEED,
+                tiny: true,
+                label_noise_cm: noise_cm,
+                ..SynthConfig::default()
+            },
+            &synth::WriteOptions {
+                progress: false,
+                ..synth::WriteOptions::new(dir)
+            },
+        )
         .unwrap()
     })
 }
@@ -171,7 +174,7 @@ fn line_tracks_lie_on_scene_edges_and_project_onto_their_supports() {
         assert!((b - a).norm() > 1e-6);
         // Both endpoints lie on one edge segment of the scene (within the 1e-10 m of
         // the track file's 10 decimals).
-        let on_edge = |x: &Vector3<f64>, e: &datasets::synth::Edge3| {
+        let on_edge = |x: &Vector3<f64>, e: &synth::Edge3| {
             let u = e.b - e.a;
             let l = (x - e.a).dot(&u) / u.norm_squared();
             let tol = 1e-9 / u.norm();

@@ -30,6 +30,8 @@ pub enum SynthError {
         #[source]
         source: std::io::Error,
     },
+    #[error(transparent)]
+    Stage(#[from] stage::StageError),
     #[error("could not encode {path}: {source}")]
     Encode {
         path: PathBuf,

@@ -1,5 +1,5 @@
 //! The shard stage: frames table + label tables -> MCAP shards and their manifest
-//! (DESIGN.md "Label shard (MCAP)"), through the `shards` crate.
+//! (docs/formats.md, "Label shards"), written by this crate's writer.
 //!
 //! Training frames go into `train-<k>.mcap` shards with their labels, the camera and
 //! pose of the label tables (the ones the labels were made with). Test frames go, in
@@ -19,22 +19,20 @@
 //!
 //! When the inputs did change (frames added for a nightly warm start, new labels), each
 //! shard is rewritten only if its own frames did: every written shard gets a source
-//! digest file (`shards::SourceDigest`, over its frames' label messages and image hashes),
+//! digest file (`crate::SourceDigest`, over its frames' label messages and image hashes),
 //! and a shard whose digest is unchanged and whose bytes are intact is kept.
 
-use crate::import::remove_record;
-use crate::parquet::TableError;
-use crate::tables::{LINES_FILE, LabelTables, POINTS_FILE, POSES_FILE};
-use datasets::frames::{Frame, FramesError, FramesTable, Split};
-use serde::{Deserialize, Serialize};
-use shards::{
+use crate::{
     FrameRecord, ImageFormat, Manifest, ShardConfig, ShardError, ShardJob, ShardPlan, SourceDigest,
     plan_shards, write_shards,
 };
-use stage::{RecordCheck, StageRecord};
+use serde::{Deserialize, Serialize};
+use stage::{Done, RecordCheck, Stage};
 use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::ops::Range;
 use std::path::{Path, PathBuf};
+use tables::labels::{LINES_FILE, POINTS_FILE, POSES_FILE};
+use tables::{Frame, FramesTable, LabelTables, Split, TableError};
 use thiserror::Error;
 
 pub const STAGE: &str = "shard";
@@ -42,26 +40,72 @@ pub const MANIFEST_FILE: &str = "manifest.json";
 pub const TRAIN_PREFIX: &str = "train-";
 pub const TEST_PREFIX: &str = "test-";
 
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+/// The shard stage's configuration: `[shard]` of a pipeline file and the flags of
+/// `pl2map shard`, the only place its settings and defaults live.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, clap::Args)]
+#[serde(default, deny_unknown_fields)]
 pub struct ShardStageConfig {
-    pub shards: ShardConfig,
-    /// Also write the test frames (see the module docs).
+    /// Frames per shard file (the last shard of a split may hold fewer).
+    #[arg(long, default_value_t = ShardStageConfig::default().frames_per_shard)]
+    pub frames_per_shard: usize,
+    /// Target uncompressed chunk size in bytes: a chunk is closed after the message
+    /// that crosses it. Smaller chunks make seeking cheaper, larger ones compress better.
+    #[arg(long, default_value_t = ShardStageConfig::default().chunk_size)]
+    pub chunk_size: u64,
+    /// zstd level of the chunks (1-22).
+    #[arg(long, default_value_t = ShardStageConfig::default().zstd_level)]
+    pub zstd_level: u32,
+    /// Also write the test frames, into their own shards (see the module docs).
+    #[arg(long, default_value_t = ShardStageConfig::default().include_test, action = clap::ArgAction::Set)]
     pub include_test: bool,
 }
 
 impl Default for ShardStageConfig {
     fn default() -> Self {
+        let writer = ShardConfig::default();
         ShardStageConfig {
-            shards: ShardConfig::default(),
+            frames_per_shard: writer.frames_per_shard,
+            chunk_size: writer.chunk_size,
+            zstd_level: writer.zstd_level,
             include_test: true,
         }
     }
 }
 
+impl ShardStageConfig {
+    /// What the writer needs.
+    pub fn writer(&self) -> ShardConfig {
+        ShardConfig {
+            frames_per_shard: self.frames_per_shard,
+            chunk_size: self.chunk_size,
+            zstd_level: self.zstd_level,
+        }
+    }
+
+    /// Refuses values no shard can be written with, before anything is read.
+    pub fn validate(&self) -> Result<(), ShardStageError> {
+        if self.frames_per_shard == 0 {
+            return Err(ShardStageError::Config(
+                "frames_per_shard must be at least 1".into(),
+            ));
+        }
+        if !(1..=22).contains(&self.zstd_level) {
+            return Err(ShardStageError::Config(format!(
+                "zstd_level must be in 1..=22, got {}",
+                self.zstd_level
+            )));
+        }
+        if self.chunk_size == 0 {
+            return Err(ShardStageError::Config(
+                "chunk_size must be at least 1".into(),
+            ));
+        }
+        Ok(())
+    }
+}
+
 #[derive(Debug, Error)]
 pub enum ShardStageError {
-    #[error("frames table: {0}")]
-    Frames(#[from] FramesError),
     #[error(transparent)]
     Table(#[from] TableError),
     #[error(transparent)]
@@ -98,6 +142,8 @@ pub enum ShardStageError {
     },
     #[error("{}: cannot read the manifest: {reason}", path.display())]
     Manifest { path: PathBuf, reason: String },
+    #[error("shard configuration: {0}")]
+    Config(String),
 }
 
 /// Why one frame could not be loaded (reported by the shards crate with its frame id).
@@ -130,10 +176,38 @@ pub struct ShardOutput {
     pub manifest: Manifest,
     /// Whether `manifest.json` (all planned shards) exists after this run.
     pub complete: bool,
-    pub skipped: bool,
+    /// The work unit this run wrote (`--shards a..b`), None for the whole plan.
+    pub range: Option<Range<usize>>,
     /// Plan indexes of the shards kept as they were: their source digest (the frames,
     /// labels and images they are made of) did not change since they were written.
     pub reused: Vec<usize>,
+}
+
+impl stage::Note for ShardOutput {
+    fn note(&self) -> String {
+        let m = &self.manifest;
+        let mut note = format!(
+            "{} shards, {} frames",
+            m.shards.len(),
+            m.shards.iter().map(|s| s.frame_count).sum::<u64>()
+        );
+        if !self.reused.is_empty() {
+            note = format!(
+                "{note}; {} kept (frames unchanged), {} written",
+                self.reused.len(),
+                m.shards.len() - self.reused.len()
+            );
+        }
+        if let Some(r) = &self.range {
+            let state = if self.complete {
+                "the set is complete"
+            } else {
+                "other units pending"
+            };
+            note = format!("unit {}..{}: {note}; {state}", r.start, r.end);
+        }
+        note
+    }
 }
 
 /// The whole run's plan: training shards, then test shards.
@@ -149,7 +223,7 @@ pub fn plan(
             .map(|f| u64::from(f.id))
             .collect()
     };
-    let fps = config.shards.frames_per_shard;
+    let fps = config.frames_per_shard;
     let mut out: Vec<ShardPlan> = plan_shards(&ids(Split::Train), fps)?
         .into_iter()
         .map(|mut p| {
@@ -173,7 +247,7 @@ pub fn plan(
 }
 
 /// The shards of a manifest that hold one split (by file name, see the module docs).
-pub fn shards_of_split(manifest: &Manifest, split: Split) -> Vec<&shards::ManifestShard> {
+pub fn shards_of_split(manifest: &Manifest, split: Split) -> Vec<&crate::ManifestShard> {
     let prefix = match split {
         Split::Train => TRAIN_PREFIX,
         Split::Test => TEST_PREFIX,
@@ -255,12 +329,9 @@ impl Source<'_> {
             .frames
             .get(&frame_id)
             .ok_or(SourceError::Unknown(frame_id))?;
-        let split = match f.split {
-            Split::Train => shards::Split::Train,
-            Split::Test => shards::Split::Test,
-        };
+        let split = f.split;
         let mut rec = FrameRecord {
-            label_source: self.labels.source.to_shards(),
+            label_source: self.labels.source,
             ..FrameRecord::unlabelled(
                 frame_id,
                 f.name.clone(),
@@ -315,7 +386,7 @@ impl Source<'_> {
         Ok(rec)
     }
 
-    /// The source digest of every planned shard (`shards::SourceDigest`).
+    /// The source digest of every planned shard (`crate::SourceDigest`).
     fn digests(
         &self,
         plans: &[ShardPlan],
@@ -347,7 +418,24 @@ pub fn run(
     labels_dir: &Path,
     out: &Path,
     range: Option<Range<usize>>,
-) -> Result<ShardOutput, ShardStageError> {
+) -> Result<Done<ShardOutput>, ShardStageError> {
+    let start = std::time::Instant::now();
+    let (output, skipped) = run_unit(config, frames_path, labels_dir, out, range)?;
+    Ok(Done {
+        output,
+        skipped,
+        seconds: start.elapsed().as_secs_f64(),
+    })
+}
+
+fn run_unit(
+    config: &ShardStageConfig,
+    frames_path: &Path,
+    labels_dir: &Path,
+    out: &Path,
+    range: Option<Range<usize>>,
+) -> Result<(ShardOutput, bool), ShardStageError> {
+    config.validate()?;
     let frames_sha256 = stage::sha256_file(frames_path)?;
     let frames = FramesTable::read_parquet(frames_path)?;
     let labels = LabelTables::read(labels_dir)?;
@@ -383,6 +471,7 @@ pub fn run(
         });
     }
     let full = range == (0..count);
+    let unit = (!full).then(|| range.clone());
     let mut inputs = BTreeMap::from([("frames".to_string(), frames_sha256)]);
     for f in [POINTS_FILE, LINES_FILE, POSES_FILE] {
         inputs.insert(
@@ -390,9 +479,10 @@ pub fn run(
             stage::sha256_file(&labels_dir.join(f))?,
         );
     }
-    let config_hash = stage::hash_config(config)?;
+    let stage = Stage::new(STAGE, out, config, inputs.clone())?;
+    let config_hash = stage.config_hash().to_string();
     let expected = Manifest {
-        format_version: shards::SHARD_FORMAT_VERSION,
+        format_version: crate::SHARD_FORMAT_VERSION,
         tool_version: env!("CARGO_PKG_VERSION").to_string(),
         config_hash: config_hash.clone(),
         inputs: inputs.clone(),
@@ -402,7 +492,7 @@ pub fn run(
     };
 
     // Skip when this unit (or the whole run) is recorded and intact.
-    if StageRecord::check(out, STAGE, &config_hash, &inputs)? == RecordCheck::UpToDate
+    if stage.check()? == RecordCheck::UpToDate
         && let Some(whole) = load_manifest(&out.join(MANIFEST_FILE))?
     {
         let shards = whole
@@ -411,31 +501,34 @@ pub fn run(
             .filter(|s| range.contains(&s.index))
             .cloned()
             .collect();
-        return Ok(ShardOutput {
-            manifest: Manifest { shards, ..whole },
-            complete: true,
-            skipped: true,
-            reused: Vec::new(),
-        });
+        return Ok((
+            ShardOutput {
+                manifest: Manifest { shards, ..whole },
+                complete: true,
+                range: unit.clone(),
+                reused: Vec::new(),
+            },
+            true,
+        ));
     }
     if !full
         && let Some(m) = load_manifest(&out.join(unit_manifest_name(&range)))?
         && unit_up_to_date(&m, out, &expected)?
     {
-        let complete = finish_if_complete(out, &expected, &config_hash, &inputs)?;
-        return Ok(ShardOutput {
-            manifest: m,
-            complete,
-            skipped: true,
-            reused: Vec::new(),
-        });
+        let complete = finish_if_complete(&stage, &expected)?;
+        return Ok((
+            ShardOutput {
+                manifest: m,
+                complete,
+                range: unit.clone(),
+                reused: Vec::new(),
+            },
+            true,
+        ));
     }
 
-    std::fs::create_dir_all(out).map_err(|source| ShardStageError::Io {
-        path: out.to_path_buf(),
-        source,
-    })?;
-    remove_record(out)?;
+    // From here on the folder claims nothing: no record, no whole-run manifest.
+    drop(stage.begin()?);
     remove_file(&out.join(MANIFEST_FILE))?;
 
     let point_ranges = ranges_by_frame(labels.points.iter().map(|r| r.frame_id));
@@ -459,11 +552,12 @@ pub fn run(
             })
             .collect(),
     };
-    let digests = source.digests(&plans, &config.shards)?;
+    let writer = config.writer();
+    let digests = source.digests(&plans, &writer)?;
     let job = ShardJob {
         out_dir: out,
         plans: &plans,
-        config: &config.shards,
+        config: &writer,
         config_hash: config_hash.clone(),
         inputs: inputs.clone(),
         digests: Some(&digests),
@@ -471,21 +565,24 @@ pub fn run(
     let load = |id: u64| -> Result<FrameRecord, Box<dyn std::error::Error + Send + Sync>> {
         source.load(id).map_err(|e| Box::new(e) as _)
     };
-    let shards::WriteOutcome { manifest, reused } = write_shards(&job, range.clone(), &load)?;
+    let crate::WriteOutcome { manifest, reused } = write_shards(&job, range.clone(), &load)?;
     let complete = if full {
         manifest.save(out.join(MANIFEST_FILE))?;
-        save_record(out, &manifest, config_hash, inputs)?;
+        save_record(&stage, &manifest)?;
         true
     } else {
         manifest.save(out.join(unit_manifest_name(&range)))?;
-        finish_if_complete(out, &expected, &config_hash, &inputs)?
+        finish_if_complete(&stage, &expected)?
     };
-    Ok(ShardOutput {
-        manifest,
-        complete,
-        skipped: false,
-        reused,
-    })
+    Ok((
+        ShardOutput {
+            manifest,
+            complete,
+            range: unit,
+            reused,
+        },
+        false,
+    ))
 }
 
 fn remove_file(path: &Path) -> Result<(), ShardStageError> {
@@ -499,30 +596,21 @@ fn remove_file(path: &Path) -> Result<(), ShardStageError> {
     }
 }
 
-fn save_record(
-    out: &Path,
-    manifest: &Manifest,
-    config_hash: String,
-    inputs: BTreeMap<String, String>,
-) -> Result<(), ShardStageError> {
-    let mut record = StageRecord::new(STAGE, config_hash, inputs);
+fn save_record(stage: &Stage, manifest: &Manifest) -> Result<(), ShardStageError> {
+    let mut outputs = stage.begin()?;
     // The writer hashed every shard as it wrote it.
     for s in &manifest.shards {
-        record.outputs.insert(s.file.clone(), s.sha256.clone());
+        outputs.add_hashed(&s.file, &s.sha256);
     }
-    record.add_output(out, MANIFEST_FILE)?;
-    record.save(out)?;
+    outputs.path(MANIFEST_FILE);
+    outputs.finish()?;
     Ok(())
 }
 
 /// Merges the unit manifests of this run found in `out`; when they cover the whole
 /// plan, writes `manifest.json` and `stage.json`.
-fn finish_if_complete(
-    out: &Path,
-    expected: &Manifest,
-    config_hash: &str,
-    inputs: &BTreeMap<String, String>,
-) -> Result<bool, ShardStageError> {
+fn finish_if_complete(stage: &Stage, expected: &Manifest) -> Result<bool, ShardStageError> {
+    let out = stage.dir();
     let io = |source| ShardStageError::Io {
         path: out.to_path_buf(),
         source,
@@ -555,6 +643,6 @@ fn finish_if_complete(
         return Ok(false);
     }
     merged.save(out.join(MANIFEST_FILE))?;
-    save_record(out, &merged, config_hash.to_string(), inputs.clone())?;
+    save_record(stage, &merged)?;
     Ok(true)
 }

@@ -25,8 +25,32 @@ use std::path::{Path, PathBuf};
 /// Which dataset layout to write.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
 pub enum Layout {
+    #[serde(rename = "7scenes")]
     SevenScenes,
+    #[serde(rename = "cambridge")]
     Cambridge,
+}
+
+impl std::fmt::Display for Layout {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Layout::SevenScenes => "7scenes",
+            Layout::Cambridge => "cambridge",
+        })
+    }
+}
+
+impl std::str::FromStr for Layout {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "7scenes" | "7-scenes" => Ok(Layout::SevenScenes),
+            "cambridge" => Ok(Layout::Cambridge),
+            _ => Err(format!(
+                "unknown layout {s:?}: expected 7scenes or cambridge"
+            )),
+        }
+    }
 }
 
 /// `x` as C's `printf("%.{prec}e")` on Windows: mantissa, `e`, sign, three-digit exponent.

@@ -1,8 +1,8 @@
 //! Renders frames of the synthetic dataset to PNG files and prints timings.
 //! Usage: cargo run --release -p datasets --example synth_frame -- OUT_DIR [SEED] [FRAME...]
 
-use datasets::synth::SynthDataset;
 use std::time::Instant;
+use synth::SynthDataset;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().collect();
@@ -41,8 +41,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     .iter()
     .enumerate()
     {
-        let r = datasets::synth::trajectory::look_rotation(*yaw, -0.45, 0.0);
-        let pose = datasets::synth::trajectory::pose_from_centre(&nalgebra::Vector3::from(*c), &r);
+        let r = synth::trajectory::look_rotation(*yaw, -0.45, 0.0);
+        let pose = synth::trajectory::pose_from_centre(&nalgebra::Vector3::from(*c), &r);
         let mut wide = ds.camera.clone();
         wide.params[0] = 320.0;
         wide.params[1] = 320.0;

@@ -1,8 +1,8 @@
 //! Contact sheet of frames with the scene's visible 3D edges projected on them (exact
 //! geometry check by eye). Usage: synth_edges OUT.png [SEED] [FRAME...]
 
-use datasets::synth::{SynthDataset, contact_sheet, preview::SheetFrame};
 use geometry::lines::{clip_segment_to_image, clip_to_near_plane};
+use synth::{SynthDataset, contact_sheet, preview::SheetFrame};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().collect();

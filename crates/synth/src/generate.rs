@@ -14,8 +14,8 @@ use super::trajectory::{
     DEFAULT_FRAMES, FrameSpec, Split, default_camera, plan_frames, plan_sequences,
 };
 use geometry::{Camera, Pose};
-use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
 use std::collections::BTreeSet;
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -23,48 +23,119 @@ use std::sync::Arc;
 /// Default scene folder name.
 pub const DEFAULT_SCENE_NAME: &str = "synthroom";
 
-/// What `pl2map synth` asks for.
-#[derive(Clone, Debug, PartialEq)]
+/// The scene the synth stage renders: its configuration (`[synth]` of a pipeline file,
+/// the flags of `pl2map synth`), the only place its settings and defaults live.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, clap::Args)]
+#[serde(default, deny_unknown_fields)]
 pub struct SynthConfig {
-    /// Output folder; the dataset goes to `out/<scene_name>`.
-    pub out: PathBuf,
-    pub scene_name: String,
-    /// Total frames (2/3 training); ignored with `tiny`.
-    pub frames: usize,
-    pub seed: u64,
-    pub layout: Layout,
-    /// The test-sized scene: 24 training + 8 test frames.
+    /// The test-sized scene: 24 training + 8 test frames (`frames` is then ignored).
+    #[arg(long)]
     pub tiny: bool,
-    /// Replace an existing `out/<scene_name>`.
-    pub overwrite: bool,
-    /// Show a progress bar (it is hidden anyway when stderr is not a terminal).
-    pub progress: bool,
-    /// Also write the COLMAP and LIMAP ground truth of the training frames to
-    /// `<scene>/sfm_gt/` (see [`super::gt`]); off by default in the library, on in the CLI.
-    pub ground_truth: bool,
-    /// RMS 3D error (cm) added to the written labels; the exact ones go to
-    /// `sfm_gt/exact.json` (see [`super::gt::noise`]).
+    /// Total frames (2/3 training).
+    #[arg(long, default_value_t = SynthConfig::default().frames)]
+    pub frames: usize,
+    /// Seed of the room and the camera paths.
+    #[arg(long, default_value_t = SynthConfig::default().seed)]
+    pub seed: u64,
+    /// RMS 3D error (cm) added to the written ground-truth labels; the exact ones go to
+    /// `sfm_gt/exact.json` (see [`super::gt::noise`]), for the refine stage to remove.
+    #[arg(long, default_value_t = SynthConfig::default().label_noise_cm)]
     pub label_noise_cm: f64,
+    /// Layout of the written dataset.
+    #[arg(long, default_value_t = SynthConfig::default().layout)]
+    pub layout: Layout,
+    /// Scene folder name inside the output folder.
+    #[arg(long, default_value_t = SynthConfig::default().name)]
+    pub name: String,
     /// Only the first N training sequences (None: all): the dataset as recorded so far.
     /// The frames kept are the same as in the full scene, so a later run with more
-    /// sequences adds frames without changing the others (nightly-retraining tests).
+    /// sequences adds frames without changing the others (nightly retraining).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    #[arg(long)]
     pub train_sequences: Option<usize>,
+    /// Also write the COLMAP and LIMAP ground truth of the training frames to
+    /// `<scene>/sfm_gt/` (see [`super::gt`]).
+    #[serde(skip_serializing_if = "is_true")]
+    #[arg(long = "no-gt", action = clap::ArgAction::SetFalse, help = "Skip the ground truth (the COLMAP model and LIMAP folder under sfm_gt/)")]
+    pub ground_truth: bool,
+}
+
+fn is_true(b: &bool) -> bool {
+    *b
 }
 
 impl Default for SynthConfig {
     fn default() -> Self {
         SynthConfig {
-            out: PathBuf::from("."),
-            scene_name: DEFAULT_SCENE_NAME.into(),
+            tiny: false,
             frames: DEFAULT_FRAMES,
             seed: 0,
+            label_noise_cm: 0.0,
             layout: Layout::SevenScenes,
-            tiny: false,
+            name: DEFAULT_SCENE_NAME.into(),
+            train_sequences: None,
+            ground_truth: true,
+        }
+    }
+}
+
+impl SynthConfig {
+    /// Refuses settings that cannot make a scene (before anything is written).
+    pub fn validate(&self) -> Result<()> {
+        if self.name.is_empty() || self.name.contains(['/', '\\']) || self.name.starts_with('.') {
+            return Err(SynthError::InvalidConfig(format!(
+                "scene name {:?} must be a plain folder name",
+                self.name
+            )));
+        }
+        if !(self.label_noise_cm.is_finite() && self.label_noise_cm >= 0.0) {
+            return Err(SynthError::InvalidConfig(format!(
+                "label_noise_cm must be finite and >= 0, got {}",
+                self.label_noise_cm
+            )));
+        }
+        Ok(())
+    }
+}
+
+impl SynthConfig {
+    /// The planned scene and camera paths (nothing rendered).
+    pub fn dataset(&self) -> Result<SynthDataset> {
+        let mut dataset = SynthDataset::new(self.frames, self.seed, self.tiny)?;
+        if let Some(n) = self.train_sequences {
+            dataset.keep_train_sequences(n)?;
+        }
+        Ok(dataset)
+    }
+}
+
+/// The colour image of a frame, relative to the scene folder, in `layout`.
+pub fn color_name(layout: Layout, f: &FrameSpec) -> String {
+    match layout {
+        Layout::SevenScenes => seven_scenes_names(f.sequence, f.index).0,
+        Layout::Cambridge => cambridge_name(f.sequence, f.index),
+    }
+}
+
+/// Where and how [`generate`] writes (not part of the scene's configuration).
+#[derive(Clone, Debug, PartialEq)]
+pub struct WriteOptions {
+    /// Output folder; the scene goes to `out/<name>`.
+    pub out: PathBuf,
+    /// Replace an existing `out/<name>`.
+    pub overwrite: bool,
+    /// Show a progress bar (hidden anyway when stderr is not a terminal or with
+    /// `--quiet`).
+    pub progress: bool,
+}
+
+impl WriteOptions {
+    /// Writes into `out`, refusing an existing scene folder, with a progress bar.
+    pub fn new(out: impl Into<PathBuf>) -> Self {
+        WriteOptions {
+            out: out.into(),
             overwrite: false,
             progress: true,
-            ground_truth: false,
-            label_noise_cm: 0.0,
-            train_sequences: None,
         }
     }
 }
@@ -172,16 +243,8 @@ pub struct SynthOutput {
 
 /// Builds, renders and writes the synthetic dataset. Same config (seed included) =>
 /// byte-identical files, whatever the number of rayon threads.
-pub fn generate(cfg: &SynthConfig) -> Result<SynthOutput> {
-    if cfg.scene_name.is_empty()
-        || cfg.scene_name.contains(['/', '\\'])
-        || cfg.scene_name.starts_with('.')
-    {
-        return Err(SynthError::InvalidConfig(format!(
-            "scene name {:?} must be a plain folder name",
-            cfg.scene_name
-        )));
-    }
+pub fn generate(cfg: &SynthConfig, write: &WriteOptions) -> Result<SynthOutput> {
+    cfg.validate()?;
     let gt_cfg = gt::GtConfig {
         label_noise_cm: cfg.label_noise_cm,
         ..gt::GtConfig::default()
@@ -190,11 +253,8 @@ pub fn generate(cfg: &SynthConfig) -> Result<SynthOutput> {
     if cfg.ground_truth {
         gt_cfg.validate().map_err(gt_err)?;
     }
-    let mut dataset = SynthDataset::new(cfg.frames, cfg.seed, cfg.tiny)?;
-    if let Some(n) = cfg.train_sequences {
-        dataset.keep_train_sequences(n)?;
-    }
-    let staging = Staging::new(&cfg.out, &cfg.scene_name, cfg.overwrite)?;
+    let dataset = cfg.dataset()?;
+    let staging = Staging::new(&write.out, &cfg.name, write.overwrite)?;
     let root = staging.dest().to_path_buf();
 
     let mut seqs: BTreeSet<u32> = BTreeSet::new();
@@ -208,16 +268,11 @@ pub fn generate(cfg: &SynthConfig) -> Result<SynthOutput> {
         }
     }
 
-    let bar = if cfg.progress {
-        ProgressBar::with_draw_target(Some(dataset.len() as u64), ProgressDrawTarget::stderr())
+    let bar = if write.progress {
+        stage::progress_bar(dataset.len() as u64, "synth")
     } else {
-        ProgressBar::hidden()
+        indicatif::ProgressBar::hidden()
     };
-    if let Ok(style) =
-        ProgressStyle::with_template("synth {bar:30} {pos}/{len} frames ({per_sec}, eta {eta})")
-    {
-        bar.set_style(style);
-    }
 
     let rendered: Vec<(FrameInfo, Option<gt::FrameObservations>)> = (0..dataset.len())
         .into_par_iter()

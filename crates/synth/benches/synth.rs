@@ -4,8 +4,8 @@
 //! Besides wall time it prints the CPU time of the measuring thread (Linux
 //! /proc/thread-self/schedstat), which stays meaningful on a loaded machine.
 
-use datasets::synth::{Scene, SynthConfig, SynthDataset, generate};
 use std::time::Instant;
+use synth::{Scene, SynthConfig, SynthDataset, generate};
 
 /// CPU time of the current thread in seconds, if the kernel reports it.
 fn thread_cpu() -> Option<f64> {
@@ -61,14 +61,17 @@ fn main() {
     for (name, tiny) in [("tiny (32 frames)", true), ("default (300 frames)", false)] {
         let dir = std::env::temp_dir().join(format!("pl2map-synth-bench-{}", std::process::id()));
         let cfg = SynthConfig {
-            out: dir.clone(),
             tiny,
-            overwrite: true,
-            progress: false,
+            ground_truth: false,
             ..SynthConfig::default()
         };
+        let write = synth::WriteOptions {
+            overwrite: true,
+            progress: false,
+            ..synth::WriteOptions::new(&dir)
+        };
         let t = Instant::now();
-        let out = generate(&cfg).expect("generate");
+        let out = generate(&cfg, &write).expect("generate");
         println!(
             "generate {name}: {} frames in {:.2} s wall on {} threads",
             out.frames.len(),

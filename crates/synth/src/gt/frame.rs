@@ -4,8 +4,8 @@
 use super::GtConfig;
 use super::error::GtError;
 use super::lines::associate_segments;
-use crate::synth::generate::SynthDataset;
-use crate::synth::scene::Scene;
+use crate::generate::SynthDataset;
+use crate::scene::Scene;
 use geometry::{Camera, Pose, Vector2, Vector3};
 use image::RgbImage;
 

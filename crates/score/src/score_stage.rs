@@ -1,0 +1,163 @@
+//! The score stage as a recorded stage: [`run`] scores a shard folder into a stage
+//! folder through the stage runner, so `pl2map score` alone and `pl2map run` record the
+//! same `stage.json` and skip the same way.
+//!
+//! Inputs (hashed into the record): the shards the localiser reads (`shard/<file>` ->
+//! sha256, from the shard folder's manifest) and the model (`model`), or `oracle` for
+//! the label correspondences. The configuration hash covers the resolved
+//! [`ScoreConfig`] (every RANSAC setting), so a changed default reruns the stage.
+
+use crate::error::ScoreError;
+use crate::evaluate::ScoreConfig;
+use crate::localiser::Localiser;
+use crate::oracle::OracleLocaliser;
+use crate::run::{SUMMARY_JSON_FILE, run as score_frames};
+use crate::summary::Summary;
+use serde::{Deserialize, Serialize};
+use shards::{Manifest, Split};
+use stage::{Done, Stage};
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+pub const STAGE: &str = "score";
+
+/// The score stage's settings: `[score]` of a pipeline file and the flags of
+/// `pl2map score`; the only place their defaults live. Defaults: the reference
+/// evaluation's (docs/method.md section 6).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, clap::Args)]
+#[serde(default, deny_unknown_fields)]
+pub struct ScoreStageConfig {
+    /// Keep points predicted with at least this reliability.
+    #[arg(long, default_value_t = ScoreStageConfig::default().min_point_reliability)]
+    pub min_point_reliability: f64,
+    /// Keep lines predicted with at least this reliability.
+    #[arg(long, default_value_t = ScoreStageConfig::default().min_line_reliability)]
+    pub min_line_reliability: f64,
+    /// RANSAC inlier threshold on point reprojection errors, pixels.
+    #[arg(long, default_value_t = ScoreStageConfig::default().point_threshold_px)]
+    pub point_threshold_px: f64,
+    /// RANSAC inlier threshold on line errors (the sum of both endpoint distances),
+    /// pixels.
+    #[arg(long, default_value_t = ScoreStageConfig::default().line_threshold_px)]
+    pub line_threshold_px: f64,
+    /// RANSAC seed (mixed with each frame id: same inputs and seed, same poses).
+    #[arg(long, default_value_t = ScoreStageConfig::default().seed)]
+    pub seed: u64,
+    /// RANSAC iterations at most (None: PoseLib's default, 100000). A weak model leaves
+    /// few inliers and RANSAC runs to this cap: lower it for quick looks.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    #[arg(long)]
+    pub max_iterations: Option<usize>,
+}
+
+impl Default for ScoreStageConfig {
+    fn default() -> Self {
+        ScoreStageConfig {
+            min_point_reliability: 0.5,
+            min_line_reliability: 0.02,
+            point_threshold_px: 12.0,
+            line_threshold_px: 10.0,
+            seed: 0,
+            max_iterations: None,
+        }
+    }
+}
+
+impl ScoreStageConfig {
+    /// The resolved configuration of every frame's evaluation.
+    pub fn resolve(&self) -> ScoreConfig {
+        ScoreConfig::with_ransac(
+            self.min_point_reliability,
+            self.min_line_reliability,
+            self.point_threshold_px,
+            self.line_threshold_px,
+            self.seed,
+            self.max_iterations,
+        )
+    }
+}
+
+/// Where the correspondences come from.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Source {
+    /// A trained network (`model.ckpt` of the train stage): scores the test frames.
+    Network(PathBuf),
+    /// The shard labels: scores the training frames (an upper bound, a check of the
+    /// solvers).
+    Oracle,
+}
+
+/// What the stage holds.
+#[derive(Clone, Debug)]
+pub struct ScoreStageOutput {
+    pub summary: Summary,
+    /// The run's output when it ran (None when it was up to date).
+    pub run: Option<crate::run::ScoreOutput>,
+}
+
+impl stage::Note for ScoreStageOutput {
+    fn note(&self) -> String {
+        self.summary.line()
+    }
+}
+
+/// The shards of `split` listed in the folder's manifest, as record inputs
+/// (`shard/<file>` -> sha256).
+fn shard_inputs(shards_dir: &Path, split: Split) -> Result<BTreeMap<String, String>, ScoreError> {
+    let path = shards_dir.join(shards::MANIFEST_FILE);
+    let manifest = Manifest::load(&path).map_err(|e| ScoreError::Manifest {
+        path: path.clone(),
+        reason: e.to_string(),
+    })?;
+    Ok(shards::shards_of_split(&manifest, split)
+        .into_iter()
+        .map(|s| (format!("shard/{}", s.file), s.sha256.clone()))
+        .collect())
+}
+
+/// Scores the shards of `shards_dir` into `out` unless its record matches.
+pub fn run(
+    config: &ScoreStageConfig,
+    shards_dir: &Path,
+    source: &Source,
+    out: &Path,
+) -> Result<Done<ScoreStageOutput>, ScoreError> {
+    let resolved = config.resolve();
+    resolved.validate()?;
+    let (split, source_hash) = match source {
+        Source::Network(model) => (Split::Test, stage::sha256_file(model)?),
+        Source::Oracle => (Split::Train, "oracle".to_string()),
+    };
+    let mut inputs = shard_inputs(shards_dir, split)?;
+    inputs.insert("model".into(), source_hash);
+    Stage::new(STAGE, out, &resolved, inputs)?.run(
+        |dir| {
+            let summary = Summary::read_json(&dir.join(SUMMARY_JSON_FILE))?;
+            Ok(ScoreStageOutput { summary, run: None })
+        },
+        |outputs| {
+            let mut localiser: Box<dyn Localiser> = match source {
+                #[cfg(feature = "network")]
+                Source::Network(model) => Box::new(crate::NetworkLocaliser::load(model)?),
+                #[cfg(not(feature = "network"))]
+                Source::Network(model) => {
+                    return Err(ScoreError::Network {
+                        checkpoint: model.clone(),
+                        reason: "this build of the score crate has no network (feature \
+                                 `network`)"
+                            .into(),
+                    });
+                }
+                Source::Oracle => Box::new(OracleLocaliser),
+            };
+            let result = score_frames(shards_dir, outputs.dir(), localiser.as_mut(), &resolved)?;
+            for f in &result.files {
+                outputs.add(f)?;
+            }
+            Ok(ScoreStageOutput {
+                summary: result.summary.clone(),
+                run: Some(result),
+            })
+        },
+    )
+}

@@ -1,0 +1,331 @@
+//! The one ending every stage shares (ARCHITECTURE.md, "The stage folder"):
+//!
+//! 1. [`Stage::new`]: the stage's name, its folder, the hash of its configuration and
+//!    the content hashes of its inputs;
+//! 2. [`Stage::run`]: when the folder's `stage.json` matches (same stage, version,
+//!    configuration, inputs, and every recorded output still has its recorded hash)
+//!    nothing runs and `load` reads the existing outputs back; otherwise the old record
+//!    is removed first (from then on the folder does not claim to be complete), `work`
+//!    writes the outputs through [`Outputs`] (each file atomically, under a temp name
+//!    and renamed), and the new record is written last, atomically;
+//! 3. [`Done`]: the output, whether the stage was skipped, how long it took, and the
+//!    report line a person reads (`<stage>: ran in 1.2 s: 300 frames`).
+//!
+//! A record that cannot be parsed (a crash of another tool, a hand edit) counts as no
+//! record: the stage runs again. Stages whose outputs are produced in several runs
+//! (the shard stage's work units) use [`Stage::check`] and [`Outputs::finish`]
+//! directly.
+
+use crate::{
+    AtomicFile, RECORD_FILE, RecordCheck, StageError, StageRecord, hash_config, io_err,
+    sha256_file, write_atomic,
+};
+use serde::Serialize;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// One run of a stage in its folder.
+#[derive(Clone, Debug)]
+pub struct Stage {
+    name: &'static str,
+    dir: PathBuf,
+    config_hash: String,
+    inputs: BTreeMap<String, String>,
+}
+
+/// What a stage gives back: its output, and whether it was up to date.
+#[derive(Clone, Debug)]
+pub struct Done<T> {
+    pub output: T,
+    /// The record matched: nothing was recomputed.
+    pub skipped: bool,
+    pub seconds: f64,
+}
+
+/// A one-line description of a stage's output for the run table and the report line
+/// (`300 frames`, `2 shards, 32 frames`).
+pub trait Note {
+    fn note(&self) -> String;
+}
+
+impl<T: Note> Done<T> {
+    /// `<stage>: ran in 1.2 s: <note>` or `<stage>: up to date: <note>`.
+    pub fn line(&self, stage: &str) -> String {
+        let note = self.output.note();
+        let state = if self.skipped {
+            "up to date".to_string()
+        } else {
+            format!("ran in {:.1} s", self.seconds)
+        };
+        if note.is_empty() {
+            format!("{stage}: {state}")
+        } else {
+            format!("{stage}: {state}: {note}")
+        }
+    }
+}
+
+impl Stage {
+    /// `config` is hashed (its JSON serialisation); `inputs` maps input names to content
+    /// hashes.
+    pub fn new<C: Serialize>(
+        name: &'static str,
+        dir: impl Into<PathBuf>,
+        config: &C,
+        inputs: BTreeMap<String, String>,
+    ) -> Result<Self, StageError> {
+        Ok(Stage {
+            name,
+            dir: dir.into(),
+            config_hash: hash_config(config)?,
+            inputs,
+        })
+    }
+
+    pub fn name(&self) -> &'static str {
+        self.name
+    }
+
+    pub fn dir(&self) -> &Path {
+        &self.dir
+    }
+
+    pub fn config_hash(&self) -> &str {
+        &self.config_hash
+    }
+
+    pub fn inputs(&self) -> &BTreeMap<String, String> {
+        &self.inputs
+    }
+
+    /// Adds an input (e.g. a model hashed after the others).
+    pub fn add_input(&mut self, name: impl Into<String>, sha256: impl Into<String>) {
+        self.inputs.insert(name.into(), sha256.into());
+    }
+
+    /// The record now in the folder, if any and readable.
+    pub fn previous(&self) -> Option<StageRecord> {
+        StageRecord::load(&self.dir).ok().flatten()
+    }
+
+    /// Compares the folder's record with this run. An unreadable record counts as none.
+    pub fn check(&self) -> Result<RecordCheck, StageError> {
+        match StageRecord::check(&self.dir, self.name, &self.config_hash, &self.inputs) {
+            Err(StageError::Record { .. }) => Ok(RecordCheck::Missing),
+            other => other,
+        }
+    }
+
+    /// Starts writing: creates the folder and removes the old record, so that from now
+    /// until [`Outputs::finish`] the folder does not claim to be complete.
+    pub fn begin(&self) -> Result<Outputs, StageError> {
+        std::fs::create_dir_all(&self.dir).map_err(io_err(&self.dir))?;
+        let record = self.dir.join(RECORD_FILE);
+        match std::fs::remove_file(&record) {
+            Ok(()) => {}
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
+            Err(e) => return Err(io_err(&record)(e)),
+        }
+        Ok(Outputs {
+            record: StageRecord::new(self.name, self.config_hash.clone(), self.inputs.clone()),
+            dir: self.dir.clone(),
+            pending: Vec::new(),
+        })
+    }
+
+    /// Skips when up to date (`load` reads the outputs back), else runs `work` and
+    /// records what it wrote.
+    pub fn run<T, E>(
+        self,
+        load: impl FnOnce(&Path) -> Result<T, E>,
+        work: impl FnOnce(&mut Outputs) -> Result<T, E>,
+    ) -> Result<Done<T>, E>
+    where
+        E: From<StageError>,
+    {
+        let start = Instant::now();
+        match self.check()? {
+            RecordCheck::UpToDate => {
+                tracing::info!("{}: {} is up to date", self.name, self.dir.display());
+                let output = load(&self.dir)?;
+                return Ok(Done {
+                    output,
+                    skipped: true,
+                    seconds: start.elapsed().as_secs_f64(),
+                });
+            }
+            RecordCheck::Missing => {}
+            RecordCheck::Changed(why) => tracing::info!("{}: rerunning ({why})", self.name),
+        }
+        let mut outputs = self.begin()?;
+        let output = work(&mut outputs)?;
+        outputs.finish()?;
+        Ok(Done {
+            output,
+            skipped: false,
+            seconds: start.elapsed().as_secs_f64(),
+        })
+    }
+}
+
+/// The outputs of a stage being written: every file goes in through a temp name and a
+/// rename, and is listed (with its content hash) in the record [`Outputs::finish`]
+/// writes last.
+pub struct Outputs {
+    record: StageRecord,
+    dir: PathBuf,
+    /// Outputs to hash at `finish` (written by the stage itself, atomically).
+    pending: Vec<String>,
+}
+
+impl Outputs {
+    /// The stage folder.
+    pub fn dir(&self) -> &Path {
+        &self.dir
+    }
+
+    /// `dir/rel`, recorded as an output: the stage writes it (atomically) before
+    /// `finish`, which hashes it.
+    pub fn path(&mut self, rel: &str) -> PathBuf {
+        self.pending.push(rel.to_string());
+        self.dir.join(rel)
+    }
+
+    /// Records a file the stage wrote, given as a path inside the stage folder.
+    pub fn add(&mut self, path: &Path) -> Result<(), StageError> {
+        let rel = path.strip_prefix(&self.dir).unwrap_or(path);
+        let rel = rel.to_str().ok_or_else(|| StageError::Path {
+            path: path.to_path_buf(),
+        })?;
+        let rel = rel.replace(std::path::MAIN_SEPARATOR, "/");
+        self.pending.push(rel);
+        Ok(())
+    }
+
+    /// Records an output whose hash the stage already has (it hashed it while writing).
+    pub fn add_hashed(&mut self, rel: &str, sha256: &str) {
+        self.record
+            .outputs
+            .insert(rel.to_string(), sha256.to_string());
+    }
+
+    /// Writes `bytes` to `dir/rel` atomically and records it.
+    pub fn write(&mut self, rel: &str, bytes: &[u8]) -> Result<(), StageError> {
+        let path = self.dir.join(rel);
+        write_atomic(&path, bytes)?;
+        self.add_hashed(rel, &crate::sha256_bytes(bytes));
+        Ok(())
+    }
+
+    /// A file to write to `dir/rel` atomically; [`AtomicFile::commit`] it, then it is
+    /// hashed and recorded at `finish`.
+    pub fn create(&mut self, rel: &str) -> Result<AtomicFile, StageError> {
+        let path = self.path(rel);
+        AtomicFile::create(path)
+    }
+
+    /// Hashes the outputs written by path and writes `stage.json`, atomically: the
+    /// folder is complete from now on.
+    pub fn finish(mut self) -> Result<StageRecord, StageError> {
+        for rel in std::mem::take(&mut self.pending) {
+            let h = sha256_file(&self.dir.join(&rel))?;
+            self.record.outputs.insert(rel, h);
+        }
+        self.record.save(&self.dir)?;
+        Ok(self.record)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[derive(Debug)]
+    struct E(String);
+    impl From<StageError> for E {
+        fn from(e: StageError) -> Self {
+            E(e.to_string())
+        }
+    }
+
+    fn run_once(dir: &Path, config: u32, input: &str, calls: &mut u32) -> Done<String> {
+        let inputs = BTreeMap::from([("in".to_string(), input.to_string())]);
+        Stage::new("demo", dir, &config, inputs)
+            .unwrap()
+            .run(
+                |d| Ok::<_, E>(std::fs::read_to_string(d.join("out.txt")).unwrap()),
+                |out| {
+                    *calls += 1;
+                    out.write("out.txt", format!("{config} {input}").as_bytes())?;
+                    let mut f = out.create("sub/more.txt")?;
+                    std::io::Write::write_all(&mut f, b"more").unwrap();
+                    f.commit()?;
+                    Ok(format!("{config} {input}"))
+                },
+            )
+            .unwrap()
+    }
+
+    #[test]
+    fn runs_records_and_skips() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path().join("stage");
+        let mut calls = 0;
+        let a = run_once(&d, 1, "x", &mut calls);
+        assert!(!a.skipped);
+        assert_eq!(a.output, "1 x");
+        let rec = StageRecord::load(&d).unwrap().unwrap();
+        assert_eq!(
+            rec.outputs.keys().collect::<Vec<_>>(),
+            ["out.txt", "sub/more.txt"]
+        );
+        let b = run_once(&d, 1, "x", &mut calls);
+        assert!(b.skipped && b.output == "1 x" && calls == 1);
+        // Another configuration, another input, a touched output: each reruns.
+        run_once(&d, 2, "x", &mut calls);
+        run_once(&d, 2, "y", &mut calls);
+        std::fs::write(d.join("sub/more.txt"), b"edited").unwrap();
+        run_once(&d, 2, "y", &mut calls);
+        assert_eq!(calls, 4);
+        // A garbage record is no record.
+        std::fs::write(d.join(RECORD_FILE), b"{not json").unwrap();
+        assert!(!run_once(&d, 2, "y", &mut calls).skipped);
+        assert_eq!(calls, 5);
+    }
+
+    #[test]
+    fn a_failed_run_leaves_no_record() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        let mut calls = 0;
+        run_once(d, 1, "x", &mut calls);
+        let r = Stage::new("demo", d, &2u32, BTreeMap::new())
+            .unwrap()
+            .run(|_| Ok::<(), E>(()), |_| Err(E("failed".into())));
+        assert_eq!(r.unwrap_err().0, "failed");
+        assert!(!d.join(RECORD_FILE).exists());
+    }
+
+    #[test]
+    fn report_lines() {
+        struct N;
+        impl Note for N {
+            fn note(&self) -> String {
+                "3 frames".into()
+            }
+        }
+        let ran = Done {
+            output: N,
+            skipped: false,
+            seconds: 1.25,
+        };
+        assert_eq!(ran.line("ingest"), "ingest: ran in 1.2 s: 3 frames");
+        let up = Done {
+            output: N,
+            skipped: true,
+            seconds: 0.0,
+        };
+        assert_eq!(up.line("ingest"), "ingest: up to date: 3 frames");
+    }
+}
