@@ -21,7 +21,6 @@
 
 mod error;
 pub mod evaluate;
-mod font;
 pub mod hloc;
 mod localiser;
 #[cfg(feature = "network")]

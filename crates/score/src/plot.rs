@@ -1,94 +1,45 @@
 //! `cdf.png`: the cumulative distributions of the translation and rotation errors of
-//! both variants (fraction of all frames with an error <= x, x on a log axis from
-//! 0.001 to 1000 cm / deg, wide enough for outdoor scenes). Frames without a pose
-//! never enter, so a curve tops out at the fraction localised. Drawn with the `image`
-//! crate (plotters is not among the packages this project may use); the same errors
-//! give the same bytes.
+//! both variants: for each error x on a log axis from 0.001 to 1000 cm / deg (wide
+//! enough for outdoor scenes), the fraction of all test frames whose error is <= x.
+//! Frames without a pose never enter, so a curve tops out at the fraction localised.
+//! One panel per error, a title naming the frame count, axis labels with units, and a
+//! legend with each variant's localised count.
+//!
+//! Drawn by plotters into an RGB buffer, text with the embedded font of the `canvas`
+//! module below (no system font is looked up), encoded by `image`: the same errors give
+//! the same bytes.
 
 use crate::error::ScoreError;
 use crate::evaluate::{FrameResult, Variant};
-use crate::font::{GLYPH_H, draw_text, text_width};
-use image::{Rgb, RgbImage};
+use canvas::Canvas;
+use image::RgbImage;
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
 use std::path::Path;
 
-const PANEL_W: u32 = 620;
-const HEIGHT: u32 = 480;
-const LEFT: u32 = 78;
-const RIGHT: u32 = 24;
-const TOP: u32 = 48;
-const BOTTOM: u32 = 92;
-/// log10 of the x range.
-const X_MIN: f64 = -3.0;
-const X_MAX: f64 = 3.0;
-const TEXT_SCALE: u32 = 2;
+/// The image size in pixels.
+pub const WIDTH: u32 = 1400;
+pub const HEIGHT: u32 = 600;
+/// Height of the title strip and of the legend strip under the panels.
+const TITLE_H: u32 = 48;
+const LEGEND_H: u32 = 44;
+/// The x range (cm or deg).
+const X_LO: f64 = 1e-3;
+const X_HI: f64 = 1e3;
 
-const BACKGROUND: Rgb<u8> = Rgb([255, 255, 255]);
-const AXIS: Rgb<u8> = Rgb([40, 40, 40]);
-const GRID: Rgb<u8> = Rgb([225, 225, 225]);
-const THRESHOLD: Rgb<u8> = Rgb([200, 200, 200]);
 /// Colours of [`Variant::ALL`]: blue, orange.
-pub const COLORS: [Rgb<u8>; 2] = [Rgb([31, 119, 180]), Rgb([230, 110, 0])];
+pub const COLORS: [RGBColor; 2] = [RGBColor(31, 119, 180), RGBColor(230, 110, 0)];
+const TEXT: RGBColor = RGBColor(30, 30, 30);
+const DECADE_GRID: RGBColor = RGBColor(205, 205, 205);
+const MINOR_GRID: RGBColor = RGBColor(236, 236, 236);
 
-/// The plot's pixel box for the curves of one panel.
-#[derive(Clone, Copy, Debug)]
-struct Frame {
-    x0: u32,
-    y0: u32,
-    w: u32,
-    h: u32,
-}
+/// The font family named in text styles (the canvas has one font: any name draws it).
+const FONT: &str = "DejaVu Sans";
 
-impl Frame {
-    fn px(&self, log_x: f64) -> f64 {
-        f64::from(self.x0) + (log_x - X_MIN) / (X_MAX - X_MIN) * f64::from(self.w - 1)
-    }
-    fn py(&self, fraction: f64) -> f64 {
-        f64::from(self.y0) + (1.0 - fraction) * f64::from(self.h - 1)
-    }
-}
-
-fn put(img: &mut RgbImage, x: i64, y: i64, c: Rgb<u8>) {
-    if x >= 0 && y >= 0 && (x as u32) < img.width() && (y as u32) < img.height() {
-        img.put_pixel(x as u32, y as u32, c);
-    }
-}
-
-/// A line of `thick` x `thick` pixel dots (Bresenham).
-fn line(img: &mut RgbImage, a: (i64, i64), b: (i64, i64), c: Rgb<u8>, thick: i64) {
-    let (mut x, mut y) = a;
-    let (dx, dy) = ((b.0 - a.0).abs(), -(b.1 - a.1).abs());
-    let (sx, sy) = (
-        if a.0 < b.0 { 1 } else { -1 },
-        if a.1 < b.1 { 1 } else { -1 },
-    );
-    let mut err = dx + dy;
-    loop {
-        for oy in 0..thick {
-            for ox in 0..thick {
-                put(img, x + ox, y + oy, c);
-            }
-        }
-        if (x, y) == b {
-            break;
-        }
-        let e2 = 2 * err;
-        if e2 >= dy {
-            err += dy;
-            x += sx;
-        }
-        if e2 <= dx {
-            err += dx;
-            y += sy;
-        }
-    }
-}
-
-fn text_centered(img: &mut RgbImage, cx: i64, y: i64, text: &str, color: Rgb<u8>) {
-    let w = i64::from(text_width(text, TEXT_SCALE));
-    draw_text(img, cx - w / 2, y, text, TEXT_SCALE, color);
-}
-
-fn tick_label(e: i32) -> String {
+/// A tick label of the decade `v` (0.001 ... 1000).
+fn tick_label(v: f64) -> String {
+    let e = v.log10().round() as i32;
     if e >= 0 {
         format!("{}", 10u64.pow(e as u32))
     } else {
@@ -104,70 +55,121 @@ fn cdf(errors: &[f64], n: usize, x: f64) -> f64 {
     errors.partition_point(|&e| e <= x) as f64 / n as f64
 }
 
-fn panel(img: &mut RgbImage, x_off: u32, title: &str, curves: &[(Vec<f64>, Rgb<u8>)], n: usize) {
-    let f = Frame {
-        x0: x_off + LEFT,
-        y0: TOP,
-        w: PANEL_W - LEFT - RIGHT,
-        h: HEIGHT - TOP - BOTTOM,
-    };
-    let (x1, y1) = (i64::from(f.x0 + f.w - 1), i64::from(f.y0 + f.h - 1));
-    // Grid: decades and the 1/2/3/5/10 accuracy thresholds, 25 % steps.
-    for e in X_MIN as i32..=X_MAX as i32 {
-        let x = f.px(f64::from(e)).round() as i64;
-        line(img, (x, i64::from(f.y0)), (x, y1), GRID, 1);
-        text_centered(img, x, y1 + 10, &tick_label(e), AXIS);
+/// The CDF of sorted finite `errors` out of `n` frames as a staircase on [X_LO, X_HI]:
+/// errors below the axis count from its left end, errors past it never show.
+fn staircase(errors: &[f64], n: usize) -> Vec<(f64, f64)> {
+    if n == 0 {
+        return vec![];
     }
-    for t in [2.0f64, 3.0, 5.0] {
-        let x = f.px(t.log10()).round() as i64;
-        let mut y = i64::from(f.y0);
-        // Dashed: the thresholds between the decades.
-        while y < y1 {
-            line(img, (x, y), (x, (y + 4).min(y1)), THRESHOLD, 1);
-            y += 9;
+    let n_f = n as f64;
+    let mut pts = vec![(X_LO, cdf(errors, n, X_LO))];
+    for (i, &e) in errors.iter().enumerate() {
+        if e > X_LO && e <= X_HI {
+            pts.push((e, i as f64 / n_f));
+            pts.push((e, (i + 1) as f64 / n_f));
         }
     }
-    for k in 0..=4 {
-        let frac = f64::from(k) / 4.0;
-        let y = f.py(frac).round() as i64;
-        line(img, (i64::from(f.x0), y), (x1, y), GRID, 1);
-        let label = format!("{}%", k * 25);
-        let w = i64::from(text_width(&label, TEXT_SCALE));
-        draw_text(
-            img,
-            i64::from(f.x0) - 8 - w,
-            y - i64::from(GLYPH_H * TEXT_SCALE) / 2,
-            &label,
-            TEXT_SCALE,
-            AXIS,
-        );
-    }
-    // Axes box.
-    let (l, t) = (i64::from(f.x0), i64::from(f.y0));
-    line(img, (l, t), (x1, t), AXIS, 1);
-    line(img, (l, y1), (x1, y1), AXIS, 1);
-    line(img, (l, t), (l, y1), AXIS, 1);
-    line(img, (x1, t), (x1, y1), AXIS, 1);
-    text_centered(img, l + i64::from(f.w) / 2, 16, title, AXIS);
-
-    // Curves: one value per pixel column, joined, so jumps are vertical segments.
-    for (errors, color) in curves {
-        let mut prev: Option<(i64, i64)> = None;
-        for col in 0..f.w {
-            let lx = X_MIN + f64::from(col) / f64::from(f.w - 1) * (X_MAX - X_MIN);
-            let y = f.py(cdf(errors, n, 10f64.powf(lx))).round() as i64;
-            let p = (i64::from(f.x0 + col), y);
-            if let Some(q) = prev {
-                line(img, q, p, *color, 2);
-            }
-            prev = Some(p);
-        }
-    }
+    pts.push((X_HI, cdf(errors, n, X_HI)));
+    pts
 }
 
-/// Renders the two panels and the legend.
-pub fn render(results: &[FrameResult]) -> RgbImage {
-    let mut img = RgbImage::from_pixel(2 * PANEL_W, HEIGHT, BACKGROUND);
+type DrawResult<T> = Result<T, String>;
+
+fn draw_err<E: std::fmt::Display>(e: E) -> String {
+    format!("drawing the plot: {e}")
+}
+
+/// One panel: the CDFs of one error (`curves` in the order of [`Variant::ALL`]).
+fn panel(
+    area: &DrawingArea<Canvas, Shift>,
+    title: &str,
+    x_desc: &str,
+    curves: &[Vec<f64>],
+    n: usize,
+) -> DrawResult<()> {
+    let decades: Vec<f64> = (-3..=3).map(|e| 10f64.powi(e)).collect();
+    let minors: Vec<f64> = (-3..3)
+        .flat_map(|e| (2..10).map(move |m| f64::from(m) * 10f64.powi(e)))
+        .collect();
+    let mut chart = ChartBuilder::on(area)
+        .caption(title, (FONT, 21).into_font().color(&TEXT))
+        .margin_top(6)
+        .margin_left(10)
+        .margin_right(28)
+        .margin_bottom(4)
+        .x_label_area_size(56)
+        .y_label_area_size(78)
+        .build_cartesian_2d(
+            (X_LO..X_HI)
+                .log_scale()
+                .with_key_points(decades)
+                .with_light_points(minors),
+            0.0..1.0,
+        )
+        .map_err(draw_err)?;
+    chart
+        .configure_mesh()
+        .x_desc(x_desc)
+        .y_desc("fraction of test frames with error ≤ x")
+        .x_label_formatter(&|v| tick_label(*v))
+        .y_labels(11)
+        .y_max_light_lines(1)
+        .y_label_formatter(&|v| format!("{v:.1}"))
+        .label_style((FONT, 16).into_font().color(&TEXT))
+        .axis_desc_style((FONT, 17).into_font().color(&TEXT))
+        .bold_line_style(DECADE_GRID)
+        .light_line_style(MINOR_GRID)
+        .axis_style(TEXT)
+        .draw()
+        .map_err(draw_err)?;
+    for (errors, color) in curves.iter().zip(COLORS) {
+        chart
+            .draw_series(LineSeries::new(staircase(errors, n), color.stroke_width(3)))
+            .map_err(draw_err)?;
+    }
+    Ok(())
+}
+
+/// The legend strip: one line sample and label per variant, centred.
+fn legend(area: &DrawingArea<Canvas, Shift>, labels: &[String]) -> DrawResult<()> {
+    const SAMPLE: i32 = 36;
+    const GAP: i32 = 10;
+    const SPACING: i32 = 48;
+    let style = TextStyle::from((FONT, 18).into_font())
+        .color(&TEXT)
+        .pos(Pos::new(HPos::Left, VPos::Center));
+    let widths: Vec<i32> = labels
+        .iter()
+        .map(|l| {
+            area.estimate_text_size(l, &style)
+                .map(|(w, _)| w as i32)
+                .map_err(draw_err)
+        })
+        .collect::<DrawResult<_>>()?;
+    let total: i32 = widths.iter().map(|w| SAMPLE + GAP + w).sum::<i32>()
+        + SPACING * (labels.len() as i32 - 1).max(0);
+    let (w, h) = area.dim_in_pixel();
+    let y = h as i32 / 2;
+    let mut x = (w as i32 - total) / 2;
+    for ((label, width), color) in labels.iter().zip(widths).zip(COLORS) {
+        area.draw(&PathElement::new(
+            vec![(x, y), (x + SAMPLE, y)],
+            color.stroke_width(3),
+        ))
+        .map_err(draw_err)?;
+        area.draw(&Text::new(
+            label.clone(),
+            (x + SAMPLE + GAP, y),
+            style.clone(),
+        ))
+        .map_err(draw_err)?;
+        x += SAMPLE + GAP + width + SPACING;
+    }
+    Ok(())
+}
+
+/// Renders the title, the two panels and the legend.
+pub fn render(results: &[FrameResult]) -> Result<RgbImage, String> {
     let n = results.len();
     let sorted = |f: &dyn Fn(&geometry::metrics::PoseError) -> f64, v: Variant| {
         let mut e: Vec<f64> = results
@@ -178,39 +180,73 @@ pub fn render(results: &[FrameResult]) -> RgbImage {
         e.sort_by(f64::total_cmp);
         e
     };
-    let titles = ["translation error (cm)", "rotation error (deg)"];
-    for (k, title) in titles.iter().enumerate() {
-        let curves: Vec<(Vec<f64>, Rgb<u8>)> = Variant::ALL
-            .iter()
-            .zip(COLORS)
-            .map(|(&v, c)| {
-                let e = if k == 0 {
-                    sorted(&|e| e.translation_cm(), v)
-                } else {
-                    sorted(&|e| e.rotation_deg, v)
-                };
-                (e, c)
-            })
-            .collect();
-        panel(&mut img, k as u32 * PANEL_W, title, &curves, n);
+    let translation: Vec<Vec<f64>> = Variant::ALL
+        .iter()
+        .map(|&v| sorted(&|e| e.translation_cm(), v))
+        .collect();
+    let rotation: Vec<Vec<f64>> = Variant::ALL
+        .iter()
+        .map(|&v| sorted(&|e| e.rotation_deg, v))
+        .collect();
+    let labels: Vec<String> = Variant::ALL
+        .iter()
+        .map(|&v| {
+            let localised = results
+                .iter()
+                .filter(|r| r.variant(v).error.is_some())
+                .count();
+            format!("{} ({localised} of {n} frames localised)", v.label())
+        })
+        .collect();
+
+    let mut buf = vec![255u8; WIDTH as usize * HEIGHT as usize * 3];
+    {
+        let root = Canvas::new(&mut buf, (WIDTH, HEIGHT))?.into_drawing_area();
+        root.fill(&WHITE).map_err(draw_err)?;
+        let (title, rest) = root.split_vertically(TITLE_H);
+        let (panels, bottom) = rest.split_vertically(HEIGHT - TITLE_H - LEGEND_H);
+        let frames = if n == 1 { "frame" } else { "frames" };
+        title
+            .draw(&Text::new(
+                format!("Cumulative distribution of pose errors over {n} test {frames}"),
+                (WIDTH as i32 / 2, TITLE_H as i32 / 2 + 4),
+                TextStyle::from((FONT, 24).into_font())
+                    .color(&TEXT)
+                    .pos(Pos::new(HPos::Center, VPos::Center)),
+            ))
+            .map_err(draw_err)?;
+        let (left, right) = panels.split_horizontally(WIDTH / 2);
+        panel(
+            &left,
+            "Translation error",
+            "translation error (cm, log scale)",
+            &translation,
+            n,
+        )?;
+        panel(
+            &right,
+            "Rotation error",
+            "rotation error (deg, log scale)",
+            &rotation,
+            n,
+        )?;
+        legend(&bottom, &labels)?;
+        root.present().map_err(draw_err)?;
     }
-    // Legend under the panels.
-    let y = i64::from(HEIGHT) - 30;
-    let mut x = i64::from(LEFT);
-    for (v, c) in Variant::ALL.iter().zip(COLORS) {
-        line(&mut img, (x, y + 6), (x + 36, y + 6), c, 3);
-        draw_text(&mut img, x + 46, y, v.label(), TEXT_SCALE, AXIS);
-        x += 46 + i64::from(text_width(v.label(), TEXT_SCALE)) + 40;
-    }
-    let note = format!("{n} frames, fraction with error <= x");
-    draw_text(&mut img, x + 20, y, &note, TEXT_SCALE, AXIS);
-    img
+    RgbImage::from_raw(WIDTH, HEIGHT, buf).ok_or_else(|| "plot buffer of the wrong size".into())
+}
+
+fn png_error(reason: String) -> image::ImageError {
+    image::ImageError::Parameter(image::error::ParameterError::from_kind(
+        image::error::ParameterErrorKind::Generic(reason),
+    ))
 }
 
 /// Encodes [`render`] as PNG.
 pub fn png_bytes(results: &[FrameResult]) -> Result<Vec<u8>, image::ImageError> {
+    let img = render(results).map_err(png_error)?;
     let mut buf = std::io::Cursor::new(Vec::new());
-    render(results).write_to(&mut buf, image::ImageFormat::Png)?;
+    img.write_to(&mut buf, image::ImageFormat::Png)?;
     Ok(buf.into_inner())
 }
 
@@ -224,11 +260,218 @@ pub fn write_plot(path: &Path, results: &[FrameResult]) -> Result<(), ScoreError
     Ok(())
 }
 
+/// A bitmap canvas: plotters' `BitMapBackend` draws the lines and areas, text is laid
+/// out and rasterised here with the embedded font (assets/fonts, a DejaVu Sans subset):
+/// kerning, side bearings and sub-pixel pen positions kept, no system font looked up.
+/// The same text gives the same pixels on every machine.
+mod canvas {
+    use ab_glyph::{Font, FontRef, Glyph, PxScale, ScaleFont, point};
+    use plotters::backend::BitMapBackend;
+    use plotters::prelude::DrawingBackend;
+    use plotters::style::text_anchor::{HPos, VPos};
+    use plotters_backend::{
+        BackendColor, BackendCoord, BackendStyle, BackendTextStyle, DrawingErrorKind,
+    };
+
+    static FONT_BYTES: &[u8] = include_bytes!("../../../assets/fonts/DejaVuSans-plot.ttf");
+
+    type Error = DrawingErrorKind<<BitMapBackend<'static> as DrawingBackend>::ErrorType>;
+
+    pub struct Canvas<'a> {
+        bitmap: BitMapBackend<'a>,
+        font: FontRef<'static>,
+    }
+
+    impl<'a> Canvas<'a> {
+        /// A canvas over an RGB buffer of `size.0 * size.1 * 3` bytes.
+        pub fn new(buf: &'a mut [u8], size: (u32, u32)) -> Result<Self, String> {
+            let font = FontRef::try_from_slice(FONT_BYTES).map_err(|e| {
+                format!("the embedded plot font (assets/fonts/DejaVuSans-plot.ttf): {e}")
+            })?;
+            Ok(Self {
+                bitmap: BitMapBackend::with_buffer(buf, size),
+                font,
+            })
+        }
+
+        /// The glyphs of `text` with the pen starting at (0, 0) on the baseline, and
+        /// the advance width, in pixels.
+        fn layout(&self, text: &str, size: f64) -> (Vec<Glyph>, f32) {
+            let font = self.font.as_scaled(PxScale::from(size as f32));
+            let (mut x, mut prev, mut glyphs) = (0f32, None, Vec::new());
+            for c in text.chars() {
+                let id = font.glyph_id(c);
+                if let Some(p) = prev {
+                    x += font.kern(p, id);
+                }
+                glyphs.push(id.with_scale_and_position(font.scale(), point(x, 0.0)));
+                x += font.h_advance(id);
+                prev = Some(id);
+            }
+            (glyphs, x)
+        }
+
+        /// Ascent, descent (negative) and capital height in pixels.
+        fn metrics(&self, size: f64) -> (f32, f32, f32) {
+            let font = self.font.as_scaled(PxScale::from(size as f32));
+            let cap = self
+                .font
+                .outline(self.font.glyph_id('H'))
+                // ab_glyph keeps the y-up top of the box in `min.y`.
+                .map(|o| o.bounds.min.y * font.v_scale_factor())
+                .unwrap_or(0.7 * font.ascent());
+            (font.ascent(), font.descent(), cap)
+        }
+    }
+
+    impl DrawingBackend for Canvas<'_> {
+        type ErrorType = <BitMapBackend<'static> as DrawingBackend>::ErrorType;
+
+        fn get_size(&self) -> (u32, u32) {
+            self.bitmap.get_size()
+        }
+        fn ensure_prepared(&mut self) -> Result<(), Error> {
+            self.bitmap.ensure_prepared()
+        }
+        fn present(&mut self) -> Result<(), Error> {
+            self.bitmap.present()
+        }
+        fn draw_pixel(&mut self, p: BackendCoord, color: BackendColor) -> Result<(), Error> {
+            self.bitmap.draw_pixel(p, color)
+        }
+        fn draw_line<S: BackendStyle>(
+            &mut self,
+            from: BackendCoord,
+            to: BackendCoord,
+            style: &S,
+        ) -> Result<(), Error> {
+            self.bitmap.draw_line(from, to, style)
+        }
+        fn draw_rect<S: BackendStyle>(
+            &mut self,
+            upper_left: BackendCoord,
+            bottom_right: BackendCoord,
+            style: &S,
+            fill: bool,
+        ) -> Result<(), Error> {
+            self.bitmap.draw_rect(upper_left, bottom_right, style, fill)
+        }
+        /// Thick paths with a square brush of `width` x `width` pixels: no spikes where
+        /// the polygon joins of plotters meet the sharp turns of noisy or stepped curves.
+        fn draw_path<S: BackendStyle, I: IntoIterator<Item = BackendCoord>>(
+            &mut self,
+            path: I,
+            style: &S,
+        ) -> Result<(), Error> {
+            let width = style.stroke_width() as i32;
+            if width <= 1 {
+                return self.bitmap.draw_path(path, style);
+            }
+            let points: Vec<BackendCoord> = path.into_iter().collect();
+            let color = style.color();
+            let lo = -(width - 1) / 2;
+            for dy in lo..lo + width {
+                for dx in lo..lo + width {
+                    let shifted = points.iter().map(|&(x, y)| (x + dx, y + dy));
+                    self.bitmap.draw_path(shifted, &color)?;
+                }
+            }
+            Ok(())
+        }
+        fn draw_circle<S: BackendStyle>(
+            &mut self,
+            center: BackendCoord,
+            radius: u32,
+            style: &S,
+            fill: bool,
+        ) -> Result<(), Error> {
+            self.bitmap.draw_circle(center, radius, style, fill)
+        }
+        fn fill_polygon<S: BackendStyle, I: IntoIterator<Item = BackendCoord>>(
+            &mut self,
+            vert: I,
+            style: &S,
+        ) -> Result<(), Error> {
+            self.bitmap.fill_polygon(vert, style)
+        }
+        fn blit_bitmap(
+            &mut self,
+            pos: BackendCoord,
+            size: (u32, u32),
+            src: &[u8],
+        ) -> Result<(), Error> {
+            self.bitmap.blit_bitmap(pos, size, src)
+        }
+
+        /// The box of the unrotated text: advance width by line height.
+        fn estimate_text_size<S: BackendTextStyle>(
+            &self,
+            text: &str,
+            style: &S,
+        ) -> Result<(u32, u32), Error> {
+            let (_, width) = self.layout(text, style.size());
+            let (ascent, descent, _) = self.metrics(style.size());
+            Ok((width.ceil() as u32, (ascent - descent).ceil() as u32))
+        }
+
+        /// Horizontal anchors at the pen's start, middle or end; vertical ones at the
+        /// ascent, the middle of the capitals (so labels centre on their tick) or the
+        /// descent. Rotation turns the laid-out pixels about the anchor.
+        fn draw_text<S: BackendTextStyle>(
+            &mut self,
+            text: &str,
+            style: &S,
+            pos: BackendCoord,
+        ) -> Result<(), Error> {
+            let color = style.color();
+            if color.alpha == 0.0 {
+                return Ok(());
+            }
+            let (glyphs, width) = self.layout(text, style.size());
+            let (ascent, descent, cap) = self.metrics(style.size());
+            let anchor = style.anchor();
+            let dx = match anchor.h_pos {
+                HPos::Left => 0.0,
+                HPos::Center => -width / 2.0,
+                HPos::Right => -width,
+            };
+            let baseline = match anchor.v_pos {
+                VPos::Top => ascent,
+                VPos::Center => cap / 2.0,
+                VPos::Bottom => descent,
+            };
+            let transform = style.transform();
+            let mut coverage = Vec::new();
+            for mut glyph in glyphs {
+                glyph.position.x += dx;
+                glyph.position.y += baseline;
+                let Some(outline) = self.font.outline_glyph(glyph) else {
+                    continue;
+                };
+                let min = outline.px_bounds().min;
+                outline.draw(|x, y, c| {
+                    coverage.push((min.x as i32 + x as i32, min.y as i32 + y as i32, c))
+                });
+            }
+            for (x, y, c) in coverage {
+                if c > 0.0 {
+                    let (x, y) = transform.transform(x, y);
+                    let c = f64::from(c.min(1.0));
+                    self.bitmap
+                        .draw_pixel((pos.0 + x, pos.1 + y), color.mix(c))?;
+                }
+            }
+            Ok(())
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::evaluate::VariantResult;
     use geometry::metrics::PoseError;
+    use image::Rgb;
 
     fn result(cm: Option<f64>, deg: f64) -> FrameResult {
         let v = VariantResult {
@@ -255,6 +498,17 @@ mod tests {
         }
     }
 
+    fn rgb(c: RGBColor) -> Rgb<u8> {
+        Rgb([c.0, c.1, c.2])
+    }
+
+    /// Pixels of `img` in the box that differ from white.
+    fn ink(img: &RgbImage, x: std::ops::Range<u32>, y: std::ops::Range<u32>) -> usize {
+        y.flat_map(|y| x.clone().map(move |x| (x, y)))
+            .filter(|&(x, y)| *img.get_pixel(x, y) != Rgb([255, 255, 255]))
+            .count()
+    }
+
     #[test]
     fn cdf_counts_all_frames() {
         let e = [0.1, 1.0, 5.0];
@@ -262,40 +516,97 @@ mod tests {
         assert_eq!(cdf(&e, 4, 1.0), 0.5);
         assert_eq!(cdf(&e, 4, 1000.0), 0.75);
         assert_eq!(cdf(&e, 0, 1.0), 0.0);
-        assert_eq!(tick_label(-3), "0.001");
-        assert_eq!(tick_label(3), "1000");
+        assert_eq!(tick_label(1e-3), "0.001");
+        assert_eq!(tick_label(1.0), "1");
+        assert_eq!(tick_label(1e3), "1000");
     }
 
     #[test]
-    fn curves_reach_the_localised_fraction_and_bytes_repeat() {
-        // Half the frames localised to ~1e-6 cm: the curve sits at 50 % from the left.
-        let results = vec![result(Some(1e-6), 1e-6), result(None, 0.0)];
-        let img = render(&results);
-        assert_eq!(img.dimensions(), (2 * PANEL_W, HEIGHT));
-        let f = Frame {
-            x0: LEFT,
-            y0: TOP,
-            w: PANEL_W - LEFT - RIGHT,
-            h: HEIGHT - TOP - BOTTOM,
-        };
-        let x = f.x0 + f.w / 2;
-        let y_half = f.py(0.5).round() as u32;
-        // The variants are drawn in order: the last one's colour is on top.
-        let c = *img.get_pixel(x, y_half);
-        assert!(COLORS.contains(&c), "{c:?} at ({x}, {y_half})");
-        // Nothing drawn at 100 % in the middle of the panel (a grid line only).
-        let top = *img.get_pixel(x, f.py(1.0).round() as u32 + 3);
-        assert!(!COLORS.contains(&top), "{top:?}");
+    fn staircase_steps_at_each_error_within_the_axis() {
+        // 1e-6 is left of the axis (counted from its start), 1e9 right of it (never shown).
+        let e = [1e-6, 0.5, 2.0, 1e9];
+        assert_eq!(
+            staircase(&e, 5),
+            vec![
+                (X_LO, 0.2),
+                (0.5, 0.2),
+                (0.5, 0.4),
+                (2.0, 0.4),
+                (2.0, 0.6),
+                (X_HI, 0.6)
+            ]
+        );
+        assert!(staircase(&[], 0).is_empty());
+    }
 
+    #[test]
+    fn png_has_its_size_a_title_and_curves() {
+        // Half the frames localised to ~1e-6 cm: the curves sit at 50 % from the left.
+        let results = vec![result(Some(1e-6), 1e-6), result(None, 0.0)];
+        let bytes = png_bytes(&results).unwrap();
+        let img = image::load_from_memory(&bytes).unwrap().to_rgb8();
+        assert_eq!(img.dimensions(), (WIDTH, HEIGHT));
+        // The title strip has text in its middle, and nothing at its far left.
+        let mid = WIDTH / 2;
+        assert!(ink(&img, mid - 150..mid + 150, 8..TITLE_H) > 300);
+        assert_eq!(ink(&img, 0..40, 0..TITLE_H), 0);
+        // Both curve colours appear (the second variant is drawn over the first, but
+        // the legend shows both), and the legend strip has text.
+        let count = |c: Rgb<u8>| img.pixels().filter(|p| **p == c).count();
+        assert!(count(rgb(COLORS[0])) > 100, "{}", count(rgb(COLORS[0])));
+        assert!(count(rgb(COLORS[1])) > 500, "{}", count(rgb(COLORS[1])));
+        assert!(ink(&img, mid - 200..mid + 200, HEIGHT - LEGEND_H..HEIGHT) > 300);
+    }
+
+    #[test]
+    fn same_results_same_bytes() {
+        let results: Vec<FrameResult> = (0..40)
+            .map(|i| {
+                let e = 0.01 * 1.3f64.powi(i);
+                result((i % 7 != 0).then_some(e), e / 3.0)
+            })
+            .collect();
         let a = png_bytes(&results).unwrap();
-        assert_eq!(a, png_bytes(&results).unwrap());
-        let back = image::load_from_memory(&a).unwrap();
-        assert_eq!(back.width(), 2 * PANEL_W);
+        let b = png_bytes(&results).unwrap();
+        assert!(a == b, "two renders of the same results differ");
+        // And a different input gives a different picture.
+        assert!(a != png_bytes(&results[..20]).unwrap());
     }
 
     #[test]
     fn empty_and_huge_errors_do_not_panic() {
-        let _ = render(&[]);
-        let _ = render(&[result(Some(1e9), f64::INFINITY), result(Some(0.0), 0.0)]);
+        render(&[]).unwrap();
+        render(&[result(Some(1e9), f64::INFINITY), result(Some(0.0), 0.0)]).unwrap();
+        render(&[result(Some(f64::NAN), f64::NAN)]).unwrap();
+    }
+
+    /// Writes a sample plot for a person to look at:
+    /// `PL2MAP_PLOT_SAMPLE=/tmp/cdf.png cargo test -p score plot::tests::sample -- --ignored`.
+    #[test]
+    #[ignore]
+    fn sample() {
+        let Ok(path) = std::env::var("PL2MAP_PLOT_SAMPLE") else {
+            println!("SKIPPED PL2MAP_PLOT_SAMPLE is not set");
+            return;
+        };
+        // A plausible indoor scene: log-normal-ish errors, a few frames unlocalised.
+        let mut results = Vec::new();
+        for i in 0..200u32 {
+            let u = (f64::from(i) + 0.5) / 200.0;
+            let z = (u - 0.5) * 5.0;
+            let mut r = result(
+                (i % 23 != 0).then_some(3.0 * (z * 0.9).exp()),
+                1.1 * z.exp(),
+            );
+            if let Some(e) = r.variants[1].error.as_mut() {
+                e.translation_m *= 0.7;
+                e.rotation_deg *= 0.75;
+            }
+            if i % 29 == 0 {
+                r.variants[0].error = None;
+            }
+            results.push(r);
+        }
+        write_plot(Path::new(&path), &results).unwrap();
     }
 }

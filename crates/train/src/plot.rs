@@ -1,24 +1,55 @@
-//! The loss curves as a PNG (`losses.png`), drawn with the `image` crate (no plotting
-//! library in this workspace).
+//! The loss curves as a PNG (`losses.png`).
 //!
-//! x: iteration (linear, first to last); y: log10 of the loss, each curve a moving
-//! average over 1/100 of the run. Grid lines mark each power of ten (darker) and each
-//! tenth of the run. Colours (no text rendering, so the legend is here and in the
-//! trainer's summary): total black, L_m points blue, L_m lines cyan, L_r (points +
-//! lines) green, L_pi (points + lines, once on) red.
+//! x: iteration (linear, first to last row of `metrics.csv`); y: the loss on a log axis
+//! spanning whole decades, each curve a moving average over 1/100 of the run (missing
+//! values skipped, non-positive ones left out). A title naming the window, axis labels,
+//! tick labels, a decade grid with 2..9 minor lines, and a legend under the chart: total
+//! (black), L_m points (blue), L_m lines (cyan), L_r for points + lines (green), L_pi for
+//! points + lines once it is on (red). Drawn by plotters into an RGB buffer, text with
+//! the embedded font of the `canvas` module below, encoded by `image`: the same metrics
+//! give the same bytes.
 
 use crate::checkpoint::write_atomic;
 use crate::error::{TrainError, io_err};
 use crate::metrics::read_columns;
-use image::{Rgb, RgbImage};
+use canvas::Canvas;
+use image::RgbImage;
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
 use std::path::Path;
 
 pub const PLOT_FILE: &str = "losses.png";
+/// The curves and their colours (also in the PNG's legend).
 pub const LEGEND: &str = "black: total, blue: L_m points, cyan: L_m lines, green: L_r, red: L_pi";
 
-const W: u32 = 1000;
-const H: u32 = 520;
-const MARGIN: u32 = 30;
+/// The image size in pixels.
+pub const WIDTH: u32 = 1200;
+pub const HEIGHT: u32 = 660;
+/// Height of the legend strip under the chart.
+const LEGEND_H: u32 = 48;
+
+/// The font family named in text styles (the canvas has one font: any name draws it).
+const FONT: &str = "DejaVu Sans";
+const TEXT: RGBColor = RGBColor(30, 30, 30);
+const DECADE_GRID: RGBColor = RGBColor(200, 200, 200);
+const MINOR_GRID: RGBColor = RGBColor(236, 236, 236);
+
+/// The curves of [`plot_metrics`], in legend order.
+pub const CURVES: [(&str, RGBColor); 5] = [
+    ("total", RGBColor(20, 20, 20)),
+    ("L_m points", RGBColor(31, 90, 200)),
+    ("L_m lines", RGBColor(0, 170, 200)),
+    ("L_r (points + lines)", RGBColor(40, 160, 50)),
+    ("L_pi (points + lines)", RGBColor(215, 40, 40)),
+];
+
+/// One curve: a value per row of the metrics (NaN where missing).
+pub struct Series {
+    pub name: String,
+    pub values: Vec<f64>,
+    pub color: RGBColor,
+}
 
 fn moving_average(v: &[f64], window: usize) -> Vec<f64> {
     let mut out = Vec::with_capacity(v.len());
@@ -41,87 +72,177 @@ fn moving_average(v: &[f64], window: usize) -> Vec<f64> {
     out
 }
 
-fn line(img: &mut RgbImage, (x0, y0): (f64, f64), (x1, y1): (f64, f64), c: Rgb<u8>) {
-    let steps = ((x1 - x0).abs().max((y1 - y0).abs()).ceil() as usize).max(1);
-    for s in 0..=steps {
-        let t = s as f64 / steps as f64;
-        let (x, y) = (x0 + (x1 - x0) * t, y0 + (y1 - y0) * t);
-        for (dx, dy) in [(0.0, 0.0), (0.0, 1.0)] {
-            let (px, py) = ((x + dx).round(), (y + dy).round());
-            if px >= 0.0 && py >= 0.0 && px < W as f64 && py < H as f64 {
-                img.put_pixel(px as u32, py as u32, c);
-            }
-        }
+/// The moving-average window of a run of `rows` rows.
+fn window(rows: usize) -> usize {
+    (rows / 100).max(1)
+}
+
+/// A tick label of the power of ten `v`.
+fn decade_label(v: f64) -> String {
+    let e = v.log10().round() as i32;
+    match e {
+        0..=5 => format!("{}", 10u64.pow(e as u32)),
+        -4..=-1 => format!("{:.*}", (-e) as usize, 10f64.powi(e)),
+        _ => format!("1e{e}"),
     }
 }
 
-/// Draws `series` (name-less curves with their colours) against their index.
-pub fn render(series: &[(Vec<f64>, Rgb<u8>)]) -> RgbImage {
-    let mut img = RgbImage::from_pixel(W, H, Rgb([255, 255, 255]));
-    let n = series.iter().map(|(v, _)| v.len()).max().unwrap_or(0);
-    let logs: Vec<f64> = series
+/// The runs of drawable points of one curve: (iteration, value) with a finite, positive
+/// value; a missing or non-positive value breaks the curve.
+fn runs(iterations: &[u64], values: &[f64]) -> Vec<Vec<(u64, f64)>> {
+    let mut out = vec![];
+    let mut run = vec![];
+    for (&it, &v) in iterations.iter().zip(values) {
+        if v.is_finite() && v > 0.0 {
+            run.push((it, v));
+        } else if !run.is_empty() {
+            out.push(std::mem::take(&mut run));
+        }
+    }
+    if !run.is_empty() {
+        out.push(run);
+    }
+    out
+}
+
+type DrawResult<T> = Result<T, String>;
+
+fn draw_err<E: std::fmt::Display>(e: E) -> String {
+    format!("drawing the plot: {e}")
+}
+
+/// The legend strip: one line sample and label per curve, centred.
+fn legend(area: &DrawingArea<Canvas, Shift>, entries: &[(&str, RGBColor)]) -> DrawResult<()> {
+    const SAMPLE: i32 = 32;
+    const GAP: i32 = 8;
+    const SPACING: i32 = 36;
+    let style = TextStyle::from((FONT, 17).into_font())
+        .color(&TEXT)
+        .pos(Pos::new(HPos::Left, VPos::Center));
+    let widths: Vec<i32> = entries
         .iter()
-        .flat_map(|(v, _)| v.iter())
-        .filter(|x| x.is_finite() && **x > 0.0)
-        .map(|x| x.log10())
+        .map(|(l, _)| {
+            area.estimate_text_size(l, &style)
+                .map(|(w, _)| w as i32)
+                .map_err(draw_err)
+        })
+        .collect::<DrawResult<_>>()?;
+    let total: i32 = widths.iter().map(|w| SAMPLE + GAP + w).sum::<i32>()
+        + SPACING * (entries.len() as i32 - 1).max(0);
+    let (w, h) = area.dim_in_pixel();
+    let y = h as i32 / 2;
+    let mut x = (w as i32 - total) / 2;
+    for ((label, color), width) in entries.iter().zip(widths) {
+        area.draw(&PathElement::new(
+            vec![(x, y), (x + SAMPLE, y)],
+            color.stroke_width(3),
+        ))
+        .map_err(draw_err)?;
+        area.draw(&Text::new(
+            label.to_string(),
+            (x + SAMPLE + GAP, y),
+            style.clone(),
+        ))
+        .map_err(draw_err)?;
+        x += SAMPLE + GAP + width + SPACING;
+    }
+    Ok(())
+}
+
+/// Draws the moving averages of `series` against `iterations` (one per row).
+pub fn render(iterations: &[u64], series: &[Series]) -> Result<RgbImage, String> {
+    let rows = iterations.len();
+    let w = window(rows);
+    let averaged: Vec<Vec<Vec<(u64, f64)>>> = series
+        .iter()
+        .map(|s| runs(iterations, &moving_average(&s.values, w)))
         .collect();
-    let lo = logs.iter().copied().fold(f64::INFINITY, f64::min).floor();
-    let hi = logs
+    let values = || averaged.iter().flatten().flatten().map(|&(_, v)| v.log10());
+    let lo = values().fold(f64::INFINITY, f64::min).floor();
+    let hi = values().fold(f64::NEG_INFINITY, f64::max).ceil();
+    let (lo, hi) = match (lo.is_finite(), hi.is_finite()) {
+        (true, true) if hi > lo => (lo as i32, hi as i32),
+        (true, true) => (lo as i32, lo as i32 + 1),
+        _ => (0, 1),
+    };
+    let decades: Vec<f64> = (lo..=hi).map(|e| 10f64.powi(e)).collect();
+    let minors: Vec<f64> = (lo..hi)
+        .flat_map(|e| (2..10).map(move |m| f64::from(m) * 10f64.powi(e)))
+        .collect();
+    // Iteration i is the state after i steps: the axis starts at the one before the first row.
+    let first = iterations
         .iter()
         .copied()
-        .fold(f64::NEG_INFINITY, f64::max)
-        .ceil();
-    let (lo, hi) = if lo.is_finite() && hi > lo {
-        (lo, hi)
-    } else {
-        (0.0, 1.0)
-    };
-    let (x0, x1) = (MARGIN as f64, (W - MARGIN) as f64);
-    let (y0, y1) = ((H - MARGIN) as f64, MARGIN as f64);
-    let px = |i: usize| x0 + (x1 - x0) * i as f64 / (n.max(2) - 1) as f64;
-    let py = |v: f64| y0 + (y1 - y0) * (v.log10() - lo) / (hi - lo);
-    for d in 0..=((hi - lo) as i64) {
-        let y = y0 + (y1 - y0) * d as f64 / (hi - lo);
-        line(&mut img, (x0, y), (x1, y), Rgb([170, 170, 170]));
-        // Minor grid at 2x .. 9x of each decade.
-        for m in 2..10 {
-            let v = 10f64.powf(lo + d as f64) * m as f64;
-            if v.log10() < hi {
-                let y = py(v);
-                line(&mut img, (x0, y), (x1, y), Rgb([232, 232, 232]));
+        .min()
+        .unwrap_or(1)
+        .saturating_sub(1);
+    let last = iterations.iter().copied().max().unwrap_or(1).max(first + 1);
+
+    let mut buf = vec![255u8; WIDTH as usize * HEIGHT as usize * 3];
+    {
+        let root = Canvas::new(&mut buf, (WIDTH, HEIGHT))?.into_drawing_area();
+        root.fill(&WHITE).map_err(draw_err)?;
+        let (top, bottom) = root.split_vertically(HEIGHT - LEGEND_H);
+        let title = if w > 1 {
+            format!("Training losses (moving averages over {w} iterations)")
+        } else {
+            "Training losses".to_string()
+        };
+        let mut chart = ChartBuilder::on(&top)
+            .caption(title, (FONT, 24).into_font().color(&TEXT))
+            .margin_top(12)
+            .margin_left(14)
+            .margin_right(36)
+            .x_label_area_size(58)
+            .y_label_area_size(84)
+            .build_cartesian_2d(
+                first..last,
+                (10f64.powi(lo)..10f64.powi(hi))
+                    .log_scale()
+                    .with_key_points(decades)
+                    .with_light_points(minors),
+            )
+            .map_err(draw_err)?;
+        chart
+            .configure_mesh()
+            .x_desc("iteration")
+            .y_desc("loss (log scale)")
+            .x_labels(11)
+            .x_max_light_lines(1)
+            .y_label_formatter(&|v| decade_label(*v))
+            .label_style((FONT, 16).into_font().color(&TEXT))
+            .axis_desc_style((FONT, 18).into_font().color(&TEXT))
+            .bold_line_style(DECADE_GRID)
+            .light_line_style(MINOR_GRID)
+            .axis_style(TEXT)
+            .draw()
+            .map_err(draw_err)?;
+        // The first series (the total) thicker and last, on top of its parts.
+        for (k, (runs, s)) in averaged.iter().zip(series).enumerate().rev() {
+            let width = if k == 0 { 3 } else { 2 };
+            for run in runs {
+                chart
+                    .draw_series(LineSeries::new(
+                        run.iter().copied(),
+                        s.color.stroke_width(width),
+                    ))
+                    .map_err(draw_err)?;
             }
         }
+        let entries: Vec<(&str, RGBColor)> =
+            series.iter().map(|s| (s.name.as_str(), s.color)).collect();
+        legend(&bottom, &entries)?;
+        root.present().map_err(draw_err)?;
     }
-    for k in 0..=10 {
-        let x = x0 + (x1 - x0) * k as f64 / 10.0;
-        line(&mut img, (x, y0), (x, y1), Rgb([225, 225, 225]));
-    }
-    line(&mut img, (x0, y0), (x1, y0), Rgb([0, 0, 0]));
-    line(&mut img, (x0, y0), (x0, y1), Rgb([0, 0, 0]));
-    let window = (n / 100).max(1);
-    for (v, c) in series {
-        let avg = moving_average(v, window);
-        let mut prev: Option<(f64, f64)> = None;
-        for (i, a) in avg.iter().enumerate() {
-            if a.is_finite() && *a > 0.0 {
-                let p = (px(i), py(*a));
-                if let Some(q) = prev {
-                    line(&mut img, q, p, *c);
-                }
-                prev = Some(p);
-            } else {
-                prev = None;
-            }
-        }
-    }
-    img
+    RgbImage::from_raw(WIDTH, HEIGHT, buf).ok_or_else(|| "plot buffer of the wrong size".into())
 }
 
-/// Plots the loss columns of a metrics file into `out` (atomically).
-pub fn plot_metrics(metrics: &Path, out: &Path) -> Result<(), TrainError> {
+/// The PNG of the loss columns of a metrics file.
+fn png_bytes(metrics: &Path) -> Result<Vec<u8>, TrainError> {
     let cols = read_columns(
         metrics,
         &[
+            "iteration",
             "total",
             "map_points",
             "map_lines",
@@ -132,50 +253,365 @@ pub fn plot_metrics(metrics: &Path, out: &Path) -> Result<(), TrainError> {
             "reprojection_active",
         ],
     )?;
-    let sum = |a: &[f64], b: &[f64]| -> Vec<f64> { a.iter().zip(b).map(|(x, y)| x + y).collect() };
-    let reprojection: Vec<f64> = sum(&cols[5], &cols[6])
-        .into_iter()
-        .zip(&cols[7])
-        .map(|(v, on)| if *on > 0.5 { v } else { f64::NAN })
+    // Rows without an iteration number (a damaged line) are left out.
+    let keep: Vec<usize> = (0..cols[0].len())
+        .filter(|&i| cols[0][i].is_finite() && cols[0][i] >= 0.0)
         .collect();
-    let img = render(&[
-        (cols[0].clone(), Rgb([0, 0, 0])),
-        (cols[1].clone(), Rgb([30, 80, 220])),
-        (cols[2].clone(), Rgb([0, 180, 200])),
-        (sum(&cols[3], &cols[4]), Rgb([20, 160, 40])),
-        (reprojection, Rgb([220, 30, 30])),
-    ]);
+    let col = |k: usize| -> Vec<f64> { keep.iter().map(|&i| cols[k][i]).collect() };
+    let iterations: Vec<u64> = keep.iter().map(|&i| cols[0][i] as u64).collect();
+    let sum = |a: &[f64], b: &[f64]| -> Vec<f64> { a.iter().zip(b).map(|(x, y)| x + y).collect() };
+    let reprojection: Vec<f64> = sum(&col(6), &col(7))
+        .into_iter()
+        .zip(col(8))
+        .map(|(v, on)| if on > 0.5 { v } else { f64::NAN })
+        .collect();
+    let values = [col(1), col(2), col(3), sum(&col(4), &col(5)), reprojection];
+    let series: Vec<Series> = CURVES
+        .iter()
+        .zip(values)
+        .map(|(&(name, color), values)| Series {
+            name: name.to_string(),
+            values,
+            color,
+        })
+        .collect();
+    let img = render(&iterations, &series)
+        .map_err(|e| TrainError::Image(format!("{}: {e}", metrics.display())))?;
     let mut bytes = std::io::Cursor::new(Vec::new());
     img.write_to(&mut bytes, image::ImageFormat::Png)
-        .map_err(|e| TrainError::Image(format!("encoding {}: {e}", out.display())))?;
-    write_atomic(out, bytes.get_ref()).map_err(|e| match e {
+        .map_err(|e| {
+            TrainError::Image(format!("encoding the plot of {}: {e}", metrics.display()))
+        })?;
+    Ok(bytes.into_inner())
+}
+
+/// Plots the loss columns of a metrics file into `out` (atomically).
+pub fn plot_metrics(metrics: &Path, out: &Path) -> Result<(), TrainError> {
+    let bytes = png_bytes(metrics)?;
+    write_atomic(out, &bytes).map_err(|e| match e {
         TrainError::Io { source, .. } => io_err(out)(source),
         other => other,
     })
 }
 
+/// A bitmap canvas: plotters' `BitMapBackend` draws the lines and areas, text is laid
+/// out and rasterised here with the embedded font (assets/fonts, a DejaVu Sans subset):
+/// kerning, side bearings and sub-pixel pen positions kept, no system font looked up.
+/// The same text gives the same pixels on every machine.
+mod canvas {
+    use ab_glyph::{Font, FontRef, Glyph, PxScale, ScaleFont, point};
+    use plotters::backend::BitMapBackend;
+    use plotters::prelude::DrawingBackend;
+    use plotters::style::text_anchor::{HPos, VPos};
+    use plotters_backend::{
+        BackendColor, BackendCoord, BackendStyle, BackendTextStyle, DrawingErrorKind,
+    };
+
+    static FONT_BYTES: &[u8] = include_bytes!("../../../assets/fonts/DejaVuSans-plot.ttf");
+
+    type Error = DrawingErrorKind<<BitMapBackend<'static> as DrawingBackend>::ErrorType>;
+
+    pub struct Canvas<'a> {
+        bitmap: BitMapBackend<'a>,
+        font: FontRef<'static>,
+    }
+
+    impl<'a> Canvas<'a> {
+        /// A canvas over an RGB buffer of `size.0 * size.1 * 3` bytes.
+        pub fn new(buf: &'a mut [u8], size: (u32, u32)) -> Result<Self, String> {
+            let font = FontRef::try_from_slice(FONT_BYTES).map_err(|e| {
+                format!("the embedded plot font (assets/fonts/DejaVuSans-plot.ttf): {e}")
+            })?;
+            Ok(Self {
+                bitmap: BitMapBackend::with_buffer(buf, size),
+                font,
+            })
+        }
+
+        /// The glyphs of `text` with the pen starting at (0, 0) on the baseline, and
+        /// the advance width, in pixels.
+        fn layout(&self, text: &str, size: f64) -> (Vec<Glyph>, f32) {
+            let font = self.font.as_scaled(PxScale::from(size as f32));
+            let (mut x, mut prev, mut glyphs) = (0f32, None, Vec::new());
+            for c in text.chars() {
+                let id = font.glyph_id(c);
+                if let Some(p) = prev {
+                    x += font.kern(p, id);
+                }
+                glyphs.push(id.with_scale_and_position(font.scale(), point(x, 0.0)));
+                x += font.h_advance(id);
+                prev = Some(id);
+            }
+            (glyphs, x)
+        }
+
+        /// Ascent, descent (negative) and capital height in pixels.
+        fn metrics(&self, size: f64) -> (f32, f32, f32) {
+            let font = self.font.as_scaled(PxScale::from(size as f32));
+            let cap = self
+                .font
+                .outline(self.font.glyph_id('H'))
+                // ab_glyph keeps the y-up top of the box in `min.y`.
+                .map(|o| o.bounds.min.y * font.v_scale_factor())
+                .unwrap_or(0.7 * font.ascent());
+            (font.ascent(), font.descent(), cap)
+        }
+    }
+
+    impl DrawingBackend for Canvas<'_> {
+        type ErrorType = <BitMapBackend<'static> as DrawingBackend>::ErrorType;
+
+        fn get_size(&self) -> (u32, u32) {
+            self.bitmap.get_size()
+        }
+        fn ensure_prepared(&mut self) -> Result<(), Error> {
+            self.bitmap.ensure_prepared()
+        }
+        fn present(&mut self) -> Result<(), Error> {
+            self.bitmap.present()
+        }
+        fn draw_pixel(&mut self, p: BackendCoord, color: BackendColor) -> Result<(), Error> {
+            self.bitmap.draw_pixel(p, color)
+        }
+        fn draw_line<S: BackendStyle>(
+            &mut self,
+            from: BackendCoord,
+            to: BackendCoord,
+            style: &S,
+        ) -> Result<(), Error> {
+            self.bitmap.draw_line(from, to, style)
+        }
+        fn draw_rect<S: BackendStyle>(
+            &mut self,
+            upper_left: BackendCoord,
+            bottom_right: BackendCoord,
+            style: &S,
+            fill: bool,
+        ) -> Result<(), Error> {
+            self.bitmap.draw_rect(upper_left, bottom_right, style, fill)
+        }
+        /// Thick paths with a square brush of `width` x `width` pixels: no spikes where
+        /// the polygon joins of plotters meet the sharp turns of noisy or stepped curves.
+        fn draw_path<S: BackendStyle, I: IntoIterator<Item = BackendCoord>>(
+            &mut self,
+            path: I,
+            style: &S,
+        ) -> Result<(), Error> {
+            let width = style.stroke_width() as i32;
+            if width <= 1 {
+                return self.bitmap.draw_path(path, style);
+            }
+            let points: Vec<BackendCoord> = path.into_iter().collect();
+            let color = style.color();
+            let lo = -(width - 1) / 2;
+            for dy in lo..lo + width {
+                for dx in lo..lo + width {
+                    let shifted = points.iter().map(|&(x, y)| (x + dx, y + dy));
+                    self.bitmap.draw_path(shifted, &color)?;
+                }
+            }
+            Ok(())
+        }
+        fn draw_circle<S: BackendStyle>(
+            &mut self,
+            center: BackendCoord,
+            radius: u32,
+            style: &S,
+            fill: bool,
+        ) -> Result<(), Error> {
+            self.bitmap.draw_circle(center, radius, style, fill)
+        }
+        fn fill_polygon<S: BackendStyle, I: IntoIterator<Item = BackendCoord>>(
+            &mut self,
+            vert: I,
+            style: &S,
+        ) -> Result<(), Error> {
+            self.bitmap.fill_polygon(vert, style)
+        }
+        fn blit_bitmap(
+            &mut self,
+            pos: BackendCoord,
+            size: (u32, u32),
+            src: &[u8],
+        ) -> Result<(), Error> {
+            self.bitmap.blit_bitmap(pos, size, src)
+        }
+
+        /// The box of the unrotated text: advance width by line height.
+        fn estimate_text_size<S: BackendTextStyle>(
+            &self,
+            text: &str,
+            style: &S,
+        ) -> Result<(u32, u32), Error> {
+            let (_, width) = self.layout(text, style.size());
+            let (ascent, descent, _) = self.metrics(style.size());
+            Ok((width.ceil() as u32, (ascent - descent).ceil() as u32))
+        }
+
+        /// Horizontal anchors at the pen's start, middle or end; vertical ones at the
+        /// ascent, the middle of the capitals (so labels centre on their tick) or the
+        /// descent. Rotation turns the laid-out pixels about the anchor.
+        fn draw_text<S: BackendTextStyle>(
+            &mut self,
+            text: &str,
+            style: &S,
+            pos: BackendCoord,
+        ) -> Result<(), Error> {
+            let color = style.color();
+            if color.alpha == 0.0 {
+                return Ok(());
+            }
+            let (glyphs, width) = self.layout(text, style.size());
+            let (ascent, descent, cap) = self.metrics(style.size());
+            let anchor = style.anchor();
+            let dx = match anchor.h_pos {
+                HPos::Left => 0.0,
+                HPos::Center => -width / 2.0,
+                HPos::Right => -width,
+            };
+            let baseline = match anchor.v_pos {
+                VPos::Top => ascent,
+                VPos::Center => cap / 2.0,
+                VPos::Bottom => descent,
+            };
+            let transform = style.transform();
+            let mut coverage = Vec::new();
+            for mut glyph in glyphs {
+                glyph.position.x += dx;
+                glyph.position.y += baseline;
+                let Some(outline) = self.font.outline_glyph(glyph) else {
+                    continue;
+                };
+                let min = outline.px_bounds().min;
+                outline.draw(|x, y, c| {
+                    coverage.push((min.x as i32 + x as i32, min.y as i32 + y as i32, c))
+                });
+            }
+            for (x, y, c) in coverage {
+                if c > 0.0 {
+                    let (x, y) = transform.transform(x, y);
+                    let c = f64::from(c.min(1.0));
+                    self.bitmap
+                        .draw_pixel((pos.0 + x, pos.1 + y), color.mix(c))?;
+                }
+            }
+            Ok(())
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+    use image::Rgb;
+
+    fn rgb(c: RGBColor) -> Rgb<u8> {
+        Rgb([c.0, c.1, c.2])
+    }
+
+    /// Pixels of `img` in the box that differ from white.
+    fn ink(img: &RgbImage, x: std::ops::Range<u32>, y: std::ops::Range<u32>) -> usize {
+        y.flat_map(|y| x.clone().map(move |x| (x, y)))
+            .filter(|&(x, y)| *img.get_pixel(x, y) != Rgb([255, 255, 255]))
+            .count()
+    }
+
+    /// A metrics.csv of `rows` iterations with falling losses, L_pi on from the middle.
+    fn write_metrics(path: &Path, rows: usize) {
+        let mut text = crate::metrics::COLUMNS.join(",") + "\n";
+        for i in 1..=rows {
+            let t = i as f64;
+            let wobble = 1.0 + 0.3 * ((i * 7919) % 13) as f64 / 13.0;
+            let (mp, ml) = (20.0 / t.sqrt() * wobble, 8.0 / t.sqrt());
+            let (rp, rl) = (0.6 * wobble, 0.4);
+            let on = i > rows / 2;
+            let (pp, pl) = if on {
+                (30.0 / t * wobble, 10.0 / t)
+            } else {
+                (0.0, 0.0)
+            };
+            let total = mp + ml + rp + rl + if on { pp + pl } else { 0.0 };
+            let mut cells = vec![
+                i.to_string(),
+                (i % 17).to_string(),
+                total.to_string(),
+                mp.to_string(),
+                ml.to_string(),
+                rp.to_string(),
+                rl.to_string(),
+                pp.to_string(),
+                pl.to_string(),
+                u8::from(on).to_string(),
+            ];
+            cells.resize(crate::metrics::COLUMNS.len(), "0".to_string());
+            text += &(cells.join(",") + "\n");
+        }
+        std::fs::write(path, text).unwrap();
+    }
 
     #[test]
-    fn curves_are_drawn_in_their_colours() {
-        let falling: Vec<f64> = (0..500).map(|i| 100.0 / (1.0 + i as f64)).collect();
-        let flat = vec![1.0; 500];
-        let img = render(&[(falling, Rgb([255, 0, 0])), (flat, Rgb([0, 0, 255]))]);
-        let count = |c: Rgb<u8>| img.pixels().filter(|p| **p == c).count();
-        assert!(count(Rgb([255, 0, 0])) > 500);
-        assert!(count(Rgb([0, 0, 255])) > 500);
-        // The falling curve starts high (top-left) and ends low.
-        let red_rows = |x: u32| -> Vec<u32> {
-            (0..H)
-                .filter(|&y| *img.get_pixel(x, y) == Rgb([255, 0, 0]))
+    fn plot_has_its_size_a_title_curves_and_legend() {
+        let dir = tempfile::tempdir().unwrap();
+        let (csv, png) = (dir.path().join("metrics.csv"), dir.path().join(PLOT_FILE));
+        write_metrics(&csv, 600);
+        plot_metrics(&csv, &png).unwrap();
+        let img = image::open(&png).unwrap().to_rgb8();
+        assert_eq!(img.dimensions(), (WIDTH, HEIGHT));
+        // The title (top middle) and the legend strip have text.
+        let mid = WIDTH / 2;
+        assert!(ink(&img, mid - 150..mid + 150, 8..40) > 300);
+        assert!(ink(&img, mid - 300..mid + 300, HEIGHT - LEGEND_H..HEIGHT) > 500);
+        // Every curve's colour is drawn, well beyond its legend sample.
+        for (name, color) in CURVES {
+            let n = img.pixels().filter(|p| **p == rgb(color)).count();
+            assert!(n > 1000, "{name}: {n} pixels");
+        }
+    }
+
+    #[test]
+    fn same_metrics_same_bytes() {
+        let dir = tempfile::tempdir().unwrap();
+        let csv = dir.path().join("metrics.csv");
+        write_metrics(&csv, 300);
+        let a = png_bytes(&csv).unwrap();
+        assert!(a == png_bytes(&csv).unwrap(), "two renders differ");
+        write_metrics(&csv, 301);
+        assert!(a != png_bytes(&csv).unwrap());
+    }
+
+    #[test]
+    fn falling_curve_is_drawn_from_high_to_low() {
+        let red = RGBColor(255, 0, 0);
+        let values: Vec<f64> = (0..500).map(|i| 100.0 / (1.0 + i as f64)).collect();
+        let iterations: Vec<u64> = (1..=500).collect();
+        let series = [Series {
+            name: "falling".into(),
+            values,
+            color: red,
+        }];
+        let img = render(&iterations, &series).unwrap();
+        let rows_at = |x: u32| -> Vec<u32> {
+            (0..HEIGHT)
+                .filter(|&y| *img.get_pixel(x, y) == rgb(red))
                 .collect()
         };
-        let start = red_rows(MARGIN + 12);
-        let end = red_rows(W - MARGIN - 1);
+        // Columns a tenth and nine tenths of the way across the picture.
+        let (start, end) = (rows_at(WIDTH / 5), rows_at(WIDTH * 9 / 10));
         assert!(!start.is_empty() && !end.is_empty());
-        assert!(start[0] < end[0]);
+        assert!(start[0] < end[0], "{start:?} {end:?}");
+    }
+
+    #[test]
+    fn empty_and_odd_inputs_do_not_panic() {
+        render(&[], &[]).unwrap();
+        let s = |values: Vec<f64>| Series {
+            name: "x".into(),
+            values,
+            color: RGBColor(0, 0, 0),
+        };
+        render(&[7], &[s(vec![1.0])]).unwrap();
+        render(&[1, 2, 3], &[s(vec![0.0, -1.0, f64::NAN])]).unwrap();
+        render(&[1, 2], &[s(vec![1e-30, 1e30])]).unwrap();
     }
 
     #[test]
@@ -186,5 +622,23 @@ mod tests {
         assert_eq!(a[1], 1.0);
         assert_eq!(a[2], 3.0);
         assert_eq!(a[3], 4.0);
+        assert_eq!(decade_label(0.01), "0.01");
+        assert_eq!(decade_label(100.0), "100");
+        assert_eq!(decade_label(1e-7), "1e-7");
+    }
+
+    /// Writes a sample plot for a person to look at:
+    /// `PL2MAP_PLOT_SAMPLE=/tmp/losses.png cargo test -p train plot::tests::sample -- --ignored`.
+    #[test]
+    #[ignore]
+    fn sample() {
+        let Ok(path) = std::env::var("PL2MAP_PLOT_SAMPLE") else {
+            println!("SKIPPED PL2MAP_PLOT_SAMPLE is not set");
+            return;
+        };
+        let dir = tempfile::tempdir().unwrap();
+        let csv = dir.path().join("metrics.csv");
+        write_metrics(&csv, 3000);
+        plot_metrics(&csv, Path::new(&path)).unwrap();
     }
 }
