@@ -90,6 +90,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         poses: PoseOption::Published,
         depth: DepthOption::None,
         camera: None,
+        descriptor: None,
+        count_check: true,
     };
     let work = tmp.path().join("work");
     let (frames_dir, labels_dir, shards_dir) = (

@@ -32,6 +32,14 @@ pub struct Args {
     /// (COLMAP order), e.g. "SIMPLE_PINHOLE 640 480 525 320 240".
     #[arg(long)]
     pub camera: Option<String>,
+    /// Dataset descriptor: a built-in name (7scenes, cambridge, synthetic) or a .toml
+    /// file of your own (datasets/*.toml show the format); default: --dataset's.
+    #[arg(long)]
+    pub descriptor: Option<String>,
+    /// Read a scene whose frame counts differ from its descriptor's (a subset such as
+    /// the sample data); by default such a scene is refused as a truncated download.
+    #[arg(long)]
+    pub no_count_check: bool,
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
@@ -42,6 +50,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         poses: args.poses,
         depth: args.depth,
         camera: args.camera,
+        descriptor: args.descriptor,
+        count_check: !args.no_count_check,
     };
     let output = ingest::run(&config, &args.out).with_context(|| {
         format!(

@@ -110,6 +110,24 @@ pub struct IngestConfig {
     /// of the dataset's default intrinsics.
     #[serde(default)]
     pub camera: Option<String>,
+    /// The dataset descriptor (see [`crate::descriptor`]): a built-in name (`7scenes`,
+    /// `cambridge`, `synthetic`) or the path of a `.toml` file; None, the built-in one
+    /// of `dataset`. It gives the layout's file names and default cameras and the
+    /// scenes' frame counts.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub descriptor: Option<String>,
+    /// Refuse a scene the descriptor lists whose frame counts per split differ from the
+    /// descriptor's (a truncated download). Off for subsets such as the sample data.
+    #[serde(default = "yes", skip_serializing_if = "is_true")]
+    pub count_check: bool,
+}
+
+fn yes() -> bool {
+    true
+}
+
+fn is_true(b: &bool) -> bool {
+    *b
 }
 
 impl IngestConfig {
@@ -121,6 +139,8 @@ impl IngestConfig {
             poses: PoseOption::default(),
             depth: DepthOption::default(),
             camera: None,
+            descriptor: None,
+            count_check: true,
         }
     }
 
@@ -188,6 +208,27 @@ mod tests {
         assert!(
             serde_json::from_str::<IngestConfig>(r#"{"dataset":"cambridge","root":"/x","typo":1}"#)
                 .is_err()
+        );
+        // The new keys default to the old behaviour and are left out when at their
+        // defaults, so configurations written before them hash the same.
+        assert!(minimal.count_check && minimal.descriptor.is_none());
+        let json = serde_json::to_string(&minimal).unwrap();
+        assert!(
+            !json.contains("count_check") && !json.contains("descriptor"),
+            "{json}"
+        );
+        let off: IngestConfig = serde_json::from_str(
+            r#"{"dataset":"7scenes","root":"/x","descriptor":"my.toml","count_check":false}"#,
+        )
+        .unwrap();
+        assert_eq!(
+            (off.descriptor.as_deref(), off.count_check),
+            (Some("my.toml"), false)
+        );
+        assert!(
+            serde_json::to_string(&off)
+                .unwrap()
+                .contains(r#""count_check":false"#)
         );
     }
 
