@@ -3,5 +3,8 @@
 //! which the `synth` crate writes in either layout) into the frames table
 //! (`tables::frames`). Each adapter converts its dataset's conventions once: poses become
 //! world-to-camera, cameras COLMAP models, names dataset-relative paths.
+//! The dataset descriptors ([`descriptor`]) are the files of the repository's
+//! `datasets/` folder, compiled in.
 
+pub mod descriptor;
 pub mod ingest;

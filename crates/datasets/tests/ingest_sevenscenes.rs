@@ -3,8 +3,9 @@
 
 mod ingest_common;
 
+use datasets::descriptor::{Descriptor, SevenScenesLayout};
 use datasets::ingest::{
-    self, DatasetKind, DepthOption, IngestConfig, IngestError, PoseOption, depth, sevenscenes,
+    self, DatasetKind, DepthOption, IngestConfig, IngestError, PoseOption, depth,
 };
 use geometry::{GeometryError, Pose};
 use ingest_common::*;
@@ -32,6 +33,23 @@ fn sample_scene() -> Option<(PathBuf, PathBuf)> {
     };
     let base = data.join("7scenes-stairs-mini");
     Some((base.join("stairs"), base.join("kapture-reference")))
+}
+
+/// The sample is 12 of the 3000 frames of stairs: read without the count check
+/// (ingest_descriptors.rs checks that it is refused with it).
+fn sample_config(scene: &Path) -> IngestConfig {
+    let mut c = IngestConfig::new(DatasetKind::SevenScenes, scene);
+    c.count_check = false;
+    c
+}
+
+/// The built-in 7-Scenes descriptor's cameras and extrinsic.
+fn seven_scenes_layout() -> SevenScenesLayout {
+    Descriptor::builtin("7scenes")
+        .unwrap()
+        .seven_scenes()
+        .unwrap()
+        .clone()
 }
 
 /// Comma-separated kapture rows (comments and blank lines skipped).
@@ -110,7 +128,7 @@ fn kapture_rig_matches_our_extrinsic() {
         assert_eq!(depth.qvec(), [1.0, 0.0, 0.0, 0.0]);
         assert_eq!(depth.tvec(), [0.0; 3]);
         let rgb = kapture_rig(&reference, part, "kinect_rgb");
-        let ours = sevenscenes::rgb_from_depth();
+        let ours = seven_scenes_layout().rgb_from_depth.unwrap().pose;
         let dr = (rgb.rotation_matrix() - ours.rotation_matrix()).abs().max();
         let dt = (rgb.translation - ours.translation).abs().max();
         eprintln!(
@@ -120,11 +138,12 @@ fn kapture_rig_matches_our_extrinsic() {
     }
 }
 
-fn ingest_sample(
-    poses: PoseOption,
-) -> Option<(FramesTable, BTreeMap<String, (Split, Pose)>, PathBuf)> {
+/// The sample's table, kapture's trajectories by image name, kapture's folder.
+type SampleIngest = (FramesTable, BTreeMap<String, (Split, Pose)>, PathBuf);
+
+fn ingest_sample(poses: PoseOption) -> Option<SampleIngest> {
     let (scene, reference) = sample_scene()?;
-    let mut config = IngestConfig::new(DatasetKind::SevenScenes, &scene);
+    let mut config = sample_config(&scene);
     config.poses = poses;
     let table = ingest::read_dataset(&config, None).unwrap();
     Some((table, kapture_trajectories(&reference), reference))
@@ -178,7 +197,7 @@ fn sample_table_rows_and_registered_depth() {
         return;
     };
     let out = tempfile::tempdir().unwrap();
-    let mut config = IngestConfig::new(DatasetKind::SevenScenes, &scene);
+    let mut config = sample_config(&scene);
     config.depth = DepthOption::Raw;
     let result = ingest::run(&config, out.path()).unwrap();
     assert!(!result.skipped);
@@ -191,7 +210,7 @@ fn sample_table_rows_and_registered_depth() {
     for (i, f) in t.frames.iter().enumerate() {
         assert_eq!(f.id as usize, i);
         assert_eq!((f.width, f.height), (640, 480));
-        assert_eq!(f.camera, sevenscenes::default_rgb_camera());
+        assert_eq!(f.camera, seven_scenes_layout().colour_camera.model);
         assert_eq!(f.path, scene.canonicalize().unwrap().join(&f.name));
         assert_eq!(f.content_hash, stage::sha256_file(&f.path).unwrap());
         // Registered depth: in the colour camera, mm, 65535 where nothing landed.
@@ -567,17 +586,16 @@ fn sample_calibrated_depth_points_land_consistently() {
         return;
     };
     let out = tempfile::tempdir().unwrap();
-    let mut config = IngestConfig::new(DatasetKind::SevenScenes, &scene);
+    let mut config = sample_config(&scene);
     config.depth = DepthOption::Raw;
     config.poses = PoseOption::Calibrated;
     let t = ingest::run(&config, out.path()).unwrap().output.table;
-    let published =
-        ingest::read_dataset(&IngestConfig::new(DatasetKind::SevenScenes, &scene), None).unwrap();
+    let published = ingest::read_dataset(&sample_config(&scene), None).unwrap();
     let f = &t.frames[0];
     let reg = depth::read_depth_png(f.depth_path.as_ref().unwrap()).unwrap();
     let raw_path = f.path.to_str().unwrap().replace(".color.jpg", ".depth.png");
     let raw = depth::read_depth_png(Path::new(&raw_path)).unwrap();
-    let dcam = sevenscenes::depth_camera();
+    let dcam = seven_scenes_layout().depth_camera.unwrap().model;
     let mut checked = 0;
     for (x, y) in [(200u32, 150u32), (320, 240), (400, 300), (250, 350)] {
         let d = raw.get_pixel(x, y).0[0];

@@ -222,6 +222,17 @@ impl Pipeline {
                     })?;
                     ingest.depth = DepthOption::Rendered(r.path(&["ingest", "depth"], dir)?);
                 }
+                // A descriptor of the user's own (a .toml file) is relative to this file;
+                // a built-in one is a name.
+                if let Some(d) = &ingest.descriptor
+                    && d.ends_with(".toml")
+                {
+                    let path = r.path(&["ingest", "descriptor"], d)?;
+                    ingest.descriptor =
+                        Some(path.to_str().map(str::to_string).ok_or_else(|| {
+                            r.value(&["ingest", "descriptor"], "path is not valid UTF-8".into())
+                        })?);
+                }
                 import.model = Some(need(["import", "model"], &import.model)?);
                 import.limap = Some(need(["import", "limap"], &import.limap)?);
             }

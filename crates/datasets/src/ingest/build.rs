@@ -113,13 +113,18 @@ fn build_frame(
     })?;
     let camera = match (&plan.camera, plan.kind) {
         (Some(c), _) => check_camera_size(c, &pf.image, w, h, "the given camera")?,
-        (None, DatasetKind::SevenScenes) => check_camera_size(
-            &sevenscenes::default_rgb_camera(),
-            &pf.image,
-            w,
-            h,
-            "the 7-Scenes default camera",
-        )?,
+        (None, DatasetKind::SevenScenes) => {
+            let Some(dc) = &plan.default_camera else {
+                return Err(IngestError::Config(
+                    "the 7-Scenes layout needs the descriptor's colour camera".into(),
+                ));
+            };
+            let what = match &dc.label {
+                Some(label) => format!("the {label} camera"),
+                None => format!("the {} descriptor's camera", plan.descriptor.name),
+            };
+            check_camera_size(&dc.model, &pf.image, w, h, &what)?
+        }
         (None, DatasetKind::Cambridge) => {
             let f = pf.focal.unwrap_or(f64::NAN);
             Camera::new(
@@ -134,12 +139,18 @@ fn build_frame(
             })?
         }
     };
+    // Both are in the plan whenever the options need them (checked while planning).
+    let sensor_missing =
+        || IngestError::Config("the descriptor's depth camera and extrinsic are missing".into());
     let pose = match &pf.pose {
         PoseSource::File(p) => {
             let depth_from_world = sevenscenes::read_pose_file(p)?;
             match plan.poses {
                 PoseOption::Published => depth_from_world,
-                PoseOption::Calibrated => sevenscenes::rgb_from_depth().compose(&depth_from_world),
+                PoseOption::Calibrated => {
+                    let ext = plan.rgb_from_depth.as_ref().ok_or_else(sensor_missing)?;
+                    ext.pose.compose(&depth_from_world)
+                }
             }
         }
         PoseSource::Given(p) => *p,
@@ -147,21 +158,23 @@ fn build_frame(
     let depth_path = match (&plan.depth, &pf.depth_in, depth_out) {
         (DepthOption::Raw, Some(input), Some(out)) => {
             let raw = depth::read_depth_png(input)?;
-            let dcam = sevenscenes::depth_camera();
+            let (Some(dcam), Some(ext)) = (&plan.depth_camera, &plan.rgb_from_depth) else {
+                return Err(sensor_missing());
+            };
             if (raw.width() as u64, raw.height() as u64) != (dcam.width, dcam.height) {
                 return Err(IngestError::ImageContent {
                     path: input.clone(),
                     message: format!(
-                        "raw depth map is {}x{}, the Kinect depth camera (f=585, centre \
-                         (320, 240)) is {}x{}",
+                        "raw depth map is {}x{}, the depth camera ({}) is {}x{}",
                         raw.width(),
                         raw.height(),
+                        camera_spec::format_camera(dcam),
                         dcam.width,
                         dcam.height
                     ),
                 });
             }
-            let reg = depth::register_depth(&raw, &dcam, &sevenscenes::rgb_from_depth(), &camera);
+            let reg = depth::register_depth(&raw, dcam, &ext.pose, &camera);
             let dest = out.join(format!("{}.depth.png", pf.stem));
             depth::write_depth_png(&dest, &reg)?;
             Some(dest)
@@ -201,39 +214,65 @@ fn check_camera_size(c: &Camera, image: &Path, w: u32, h: u32, what: &str) -> Re
     Ok(c.clone())
 }
 
+/// The table's description of its sources. The wording of every note is fixed (the
+/// bytes of frames.parquet depend on it); only the descriptor's values and labels fill
+/// it in.
 fn meta(plan: &Plan, depth_out: Option<&Path>) -> IngestMeta {
+    let extrinsic = plan
+        .rgb_from_depth
+        .as_ref()
+        .map_or("(none)", |e| e.label.as_str());
     let pose_source = match (plan.kind, plan.poses) {
         (DatasetKind::SevenScenes, PoseOption::Published) => {
             "published: pose.txt (camera-to-world of the Kinect depth camera) inverted, \
              used as the colour camera's pose"
+                .to_string()
         }
-        (DatasetKind::SevenScenes, PoseOption::Calibrated) => {
-            "calibrated: pose.txt moved to the colour camera with the LIRIS Kinect \
+        (DatasetKind::SevenScenes, PoseOption::Calibrated) => format!(
+            "calibrated: pose.txt moved to the colour camera with the {extrinsic} Kinect \
              depth-to-RGB extrinsic (rgb_from_world = rgb_from_depth * depth_from_world, \
              as ACE/DSAC* and kapture's kinect rig)"
-        }
+        ),
         (DatasetKind::Cambridge, _) => {
-            "published: dataset_train.txt / dataset_test.txt (camera centre and w-first \
-             world-to-camera quaternion)"
+            let (train, test) = plan
+                .descriptor
+                .layouts
+                .cambridge
+                .as_ref()
+                .map_or(("", ""), |l| {
+                    (l.train_split.as_str(), l.test_split.as_str())
+                });
+            format!(
+                "published: {train} / {test} (camera centre and w-first world-to-camera \
+                 quaternion)"
+            )
         }
-    }
-    .to_string();
+    };
     let depth_source = match &plan.depth {
         DepthOption::None => "none".to_string(),
         DepthOption::Raw => format!(
             "raw: frame-XXXXXX.depth.png registered into the colour camera (depth camera \
-             SIMPLE_PINHOLE 585 320 240, LIRIS depth-to-RGB extrinsic, nearest point wins), \
-             written under {}",
+             {}, {extrinsic} depth-to-RGB extrinsic, nearest point wins), written under {}",
+            plan.depth_camera
+                .as_ref()
+                .map_or_else(String::new, camera_spec::format_model_and_params),
             depth_out.map_or_else(String::new, |d| d.display().to_string())
         ),
         DepthOption::Rendered(d) => format!("rendered: {}", d.display()),
     };
     let intrinsics = match (&plan.camera, plan.kind) {
         (Some(c), _) => format!("given: {}", camera_spec::format_camera(c)),
-        (None, DatasetKind::SevenScenes) => format!(
-            "7-Scenes default: {} (DSAC*/ACE, kapture)",
-            camera_spec::format_camera(&sevenscenes::default_rgb_camera())
-        ),
+        (None, DatasetKind::SevenScenes) => match &plan.default_camera {
+            Some(dc) => format!(
+                "{}: {} ({})",
+                dc.label
+                    .clone()
+                    .unwrap_or_else(|| format!("{} default", plan.descriptor.title)),
+                camera_spec::format_camera(&dc.model),
+                dc.source
+            ),
+            None => String::new(),
+        },
         (None, DatasetKind::Cambridge) => "SIMPLE_PINHOLE: focal length of the image's \
              reconstruction.nvm camera, principal point at the image centre, size from the \
              image file"

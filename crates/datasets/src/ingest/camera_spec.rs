@@ -39,6 +39,17 @@ pub fn format_camera(c: &Camera) -> String {
     s
 }
 
+/// The camera as `MODEL p1 p2 ...`, without the size (how the frames table's notes name
+/// the depth camera).
+pub fn format_model_and_params(c: &Camera) -> String {
+    let mut s = c.model.name().to_string();
+    for p in &c.params {
+        s.push(' ');
+        s.push_str(&p.to_string());
+    }
+    s
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -50,6 +61,7 @@ mod tests {
         assert_eq!((c.width, c.height), (640, 480));
         assert_eq!(c.params, vec![525.0, 320.0, 240.0]);
         assert_eq!(format_camera(&c), "SIMPLE_PINHOLE 640 480 525 320 240");
+        assert_eq!(format_model_and_params(&c), "SIMPLE_PINHOLE 525 320 240");
         let c = parse_camera("  PINHOLE\t1920 1080 1670.5 1671 960 540 ").unwrap();
         assert_eq!(c.params.len(), 4);
     }

@@ -137,7 +137,7 @@ impl std::fmt::Display for PoseOption {
 
 /// The ingest stage's configuration: `[ingest]` of a pipeline file and the flags of
 /// `pl2map ingest`, the only place its settings and defaults live.
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize, clap::Args)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, clap::Args)]
 #[serde(default, deny_unknown_fields)]
 pub struct IngestConfig {
     /// Dataset layout: 7scenes or cambridge (a pipeline with [synth] takes its scene's).
@@ -167,6 +167,42 @@ pub struct IngestConfig {
     #[arg(long)]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub camera: Option<String>,
+    /// The dataset descriptor (see [`crate::descriptor`]): a built-in name (`7scenes`,
+    /// `cambridge`, `synthetic`) or the path of a `.toml` file; None, the built-in one
+    /// of `dataset`. It gives the layout's file names and default cameras and the
+    /// scenes' frame counts.
+    #[arg(long)]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub descriptor: Option<String>,
+    /// Refuse a scene the descriptor lists whose frame counts per split differ from the
+    /// descriptor's (a truncated download). Off for subsets such as the sample data.
+    #[arg(
+        long = "no-count-check",
+        action = clap::ArgAction::SetFalse,
+        help = "Read a scene whose frame counts differ from its descriptor's (a subset such \
+                as the sample data); by default such a scene is refused as a truncated download"
+    )]
+    #[serde(skip_serializing_if = "is_true")]
+    pub count_check: bool,
+}
+
+fn is_true(b: &bool) -> bool {
+    *b
+}
+
+impl Default for IngestConfig {
+    fn default() -> Self {
+        IngestConfig {
+            dataset: None,
+            root: None,
+            scene: None,
+            poses: PoseOption::default(),
+            depth: DepthOption::default(),
+            camera: None,
+            descriptor: None,
+            count_check: true,
+        }
+    }
 }
 
 impl IngestConfig {
@@ -260,6 +296,27 @@ mod tests {
         assert!(
             serde_json::from_str::<IngestConfig>(r#"{"dataset":"cambridge","root":"/x","typo":1}"#)
                 .is_err()
+        );
+        // The new keys default to the old behaviour and are left out when at their
+        // defaults, so configurations written before them hash the same.
+        assert!(minimal.count_check && minimal.descriptor.is_none());
+        let json = serde_json::to_string(&minimal).unwrap();
+        assert!(
+            !json.contains("count_check") && !json.contains("descriptor"),
+            "{json}"
+        );
+        let off: IngestConfig = serde_json::from_str(
+            r#"{"dataset":"7scenes","root":"/x","descriptor":"my.toml","count_check":false}"#,
+        )
+        .unwrap();
+        assert_eq!(
+            (off.descriptor.as_deref(), off.count_check),
+            (Some("my.toml"), false)
+        );
+        assert!(
+            serde_json::to_string(&off)
+                .unwrap()
+                .contains(r#""count_check":false"#)
         );
     }
 

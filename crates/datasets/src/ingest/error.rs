@@ -1,3 +1,4 @@
+use crate::descriptor::{CountMismatch, DescriptorError, SplitCounts};
 use geometry::GeometryError;
 use std::path::PathBuf;
 use tables::TableError;
@@ -82,13 +83,53 @@ pub enum IngestError {
     /// An invalid configuration (not about a file).
     #[error("invalid ingest configuration: {0}")]
     Config(String),
+    /// The dataset descriptor cannot be read or lacks what the configuration needs.
+    #[error(transparent)]
+    Descriptor(#[from] DescriptorError),
+    /// A scene whose frames per split differ from its dataset descriptor's counts.
+    #[error(transparent)]
+    FrameCounts(Box<FrameCountError>),
     #[error(transparent)]
     Table(#[from] TableError),
     #[error(transparent)]
     Stage(#[from] stage::StageError),
 }
 
+/// A scene whose frames per split differ from its dataset descriptor's counts: a
+/// truncated or partial download, or a subset read without turning the check off.
+#[derive(Debug, Error)]
+#[error(
+    "{scene_dir}: scene {scene} does not have the frames the {descriptor} dataset \
+     descriptor ({origin}) lists: {} ({counted}). A truncated or partial download? \
+     Download the scene again, or turn the check off (`pl2map ingest --no-count-check`, \
+     `count_check = false` in [ingest]) to read a subset such as the sample data",
+    list_mismatches(.mismatches)
+)]
+pub struct FrameCountError {
+    pub scene_dir: PathBuf,
+    pub scene: String,
+    /// The descriptor's name.
+    pub descriptor: String,
+    /// Where the descriptor was read from.
+    pub origin: String,
+    pub expected: SplitCounts,
+    /// Every split whose count differs, train first.
+    pub mismatches: Vec<CountMismatch>,
+    /// What was counted, e.g. `frames of the sequences TrainSplit.txt / TestSplit.txt
+    /// list`.
+    pub counted: String,
+}
+
 pub type Result<T, E = IngestError> = std::result::Result<T, E>;
+
+/// `train: expected 2000, found 6; test: expected 1000, found 6`.
+fn list_mismatches(mismatches: &[CountMismatch]) -> String {
+    let list: Vec<String> = mismatches
+        .iter()
+        .map(|m| format!("{}: expected {}, found {}", m.split, m.expected, m.found))
+        .collect();
+    list.join("; ")
+}
 
 pub(crate) fn io_err(path: impl Into<PathBuf>) -> impl FnOnce(std::io::Error) -> IngestError {
     let path = path.into();

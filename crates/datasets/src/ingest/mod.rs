@@ -21,7 +21,7 @@ pub mod sevenscenes;
 mod text;
 
 pub use config::{DatasetKind, DepthOption, IngestConfig, PoseOption};
-pub use error::{IngestError, Result};
+pub use error::{FrameCountError, IngestError, Result};
 
 use stage::{Done, Stage};
 use std::path::{Path, PathBuf};

@@ -3,8 +3,9 @@
 //! [`super::build`].
 
 use super::config::{DatasetKind, DepthOption, IngestConfig, PoseOption};
-use super::error::{IngestError, Result, io_err};
+use super::error::{FrameCountError, IngestError, Result, io_err};
 use super::{cambridge, depth, nvm, sevenscenes};
+use crate::descriptor::{self, CountCheck, Descriptor, Extrinsic, NamedCamera, SplitCounts};
 use geometry::{Camera, Pose};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -42,6 +43,15 @@ pub(super) struct Plan {
     pub(super) depth: DepthOption,
     pub(super) poses: PoseOption,
     pub(super) camera: Option<Camera>,
+    /// The dataset descriptor in use.
+    pub(super) descriptor: Descriptor,
+    /// 7-Scenes layout: the descriptor's colour camera (used without `camera`).
+    pub(super) default_camera: Option<NamedCamera>,
+    /// 7-Scenes layout: the descriptor's depth camera (`depth = raw`).
+    pub(super) depth_camera: Option<Camera>,
+    /// 7-Scenes layout: the descriptor's depth-to-RGB extrinsic (`depth = raw`,
+    /// `poses = calibrated`).
+    pub(super) rgb_from_depth: Option<Extrinsic>,
     pub(super) frames: Vec<PlannedFrame>,
     pub(super) excluded: Vec<ExcludedFrame>,
     /// Files read once for the whole scene: (category, name, path).
@@ -71,6 +81,9 @@ fn rel_name(base: &Path, path: &Path) -> String {
 /// files, NVM); per-frame files are read by [`super::build`].
 pub(super) fn plan(config: &IngestConfig) -> Result<Plan> {
     let camera = config.validate()?;
+    let kind = config.dataset()?;
+    let descriptor = Descriptor::resolve(config.descriptor.as_deref(), kind)?;
+    descriptor.require_layout(kind)?;
     let scene_dir = canonical_dir(&config.scene_dir(), "scene folder")?;
     let scene = match &config.scene {
         Some(s) => s.clone(),
@@ -89,6 +102,47 @@ pub(super) fn plan(config: &IngestConfig) -> Result<Plan> {
     if let Some(d) = &rendered {
         normalised_config.depth = DepthOption::Rendered(d.clone());
     }
+    // The count check changes no output (and runs on every plan, skipped or not); the
+    // layout's own descriptor is the default. Left at their defaults, both keys are not
+    // serialised: the record of a configuration without them is unchanged.
+    normalised_config.count_check = true;
+    let mut scene_inputs = Vec::new();
+    normalised_config.descriptor = match config.descriptor.as_deref() {
+        Some(c) if descriptor::is_path(c) => {
+            let p = std::fs::canonicalize(c).map_err(io_err(c))?;
+            let name = p
+                .file_name()
+                .map(|n| n.to_string_lossy().into_owned())
+                .unwrap_or_default();
+            scene_inputs.push(("descriptor", name, p.clone()));
+            Some(p.display().to_string())
+        }
+        Some(c) if c == kind.name() => None,
+        other => other.map(str::to_string),
+    };
+    let (default_camera, depth_camera, rgb_from_depth) = match kind {
+        DatasetKind::SevenScenes => {
+            let l = descriptor.seven_scenes()?;
+            (
+                Some(l.colour_camera.clone()),
+                l.depth_camera.as_ref().map(|c| c.model.clone()),
+                l.rgb_from_depth.clone(),
+            )
+        }
+        DatasetKind::Cambridge => (None, None, None),
+    };
+    if config.depth == DepthOption::Raw && depth_camera.is_none() {
+        return Err(descriptor
+            .missing("depth = raw needs [layouts.7scenes.depth_camera]")
+            .into());
+    }
+    let needs_extrinsic =
+        config.depth == DepthOption::Raw || config.poses == PoseOption::Calibrated;
+    if needs_extrinsic && rgb_from_depth.is_none() {
+        return Err(descriptor
+            .missing("depth = raw and poses = calibrated need [layouts.7scenes.rgb_from_depth]")
+            .into());
+    }
     let mut plan = Plan {
         kind: config.dataset()?,
         scene,
@@ -96,14 +150,26 @@ pub(super) fn plan(config: &IngestConfig) -> Result<Plan> {
         depth: normalised_config.depth.clone(),
         poses: config.poses,
         camera,
+        descriptor,
+        default_camera,
+        depth_camera,
+        rgb_from_depth,
         frames: Vec::new(),
         excluded: Vec::new(),
-        scene_inputs: Vec::new(),
+        scene_inputs,
         normalised_config,
     };
-    match plan.kind {
+    let counted = match plan.kind {
         DatasetKind::SevenScenes => plan_seven_scenes(&mut plan, rendered.as_deref())?,
         DatasetKind::Cambridge => plan_cambridge(&mut plan, rendered.as_deref())?,
+    };
+    if config.count_check {
+        check_counts(&plan, &counted)?;
+    } else {
+        tracing::info!(
+            "ingest: frame counts of {} not checked (count_check = false)",
+            plan.scene
+        );
     }
     plan.frames
         .sort_by(|a, b| (a.split, &a.name).cmp(&(b.split, &b.name)));
@@ -119,6 +185,57 @@ pub(super) fn plan(config: &IngestConfig) -> Result<Plan> {
     Ok(plan)
 }
 
+/// Compares the frames listed per split (excluded ones included) with the descriptor's
+/// counts of the scene. `counted` says what was counted, for the error.
+fn check_counts(plan: &Plan, counted: &str) -> Result<()> {
+    let listed = |split: Split| {
+        plan.frames.iter().filter(|f| f.split == split).count()
+            + plan.excluded.iter().filter(|f| f.split == split).count()
+    };
+    let found = SplitCounts {
+        train: listed(Split::Train),
+        test: listed(Split::Test),
+    };
+    let d = &plan.descriptor;
+    match d.check_counts(&plan.scene, found) {
+        CountCheck::Agrees(c) => tracing::info!(
+            "ingest: {} has the {} train and {} test frames of the {} descriptor",
+            plan.scene,
+            c.train,
+            c.test,
+            d.name
+        ),
+        CountCheck::NotFixed => tracing::info!(
+            "ingest: the {} descriptor fixes no frame counts for {}: not checked",
+            d.name,
+            plan.scene
+        ),
+        CountCheck::NotListed => tracing::info!(
+            "ingest: scene {} is not in the {} descriptor ({}; scenes {}): frame counts not \
+             checked",
+            plan.scene,
+            d.name,
+            d.origin(),
+            d.scenes.keys().cloned().collect::<Vec<_>>().join(", ")
+        ),
+        CountCheck::Differs {
+            expected,
+            mismatches,
+        } => {
+            return Err(IngestError::FrameCounts(Box::new(FrameCountError {
+                scene_dir: plan.scene_dir.clone(),
+                scene: plan.scene.clone(),
+                descriptor: d.name.clone(),
+                origin: d.origin().to_string(),
+                expected,
+                mismatches,
+                counted: counted.to_string(),
+            })));
+        }
+    }
+    Ok(())
+}
+
 fn add_rendered(plan: &Plan, frame: &mut PlannedFrame, rendered: Option<&Path>) -> Result<()> {
     if let Some(dir) = rendered {
         let p = depth::find_rendered(dir, plan.kind, &frame.stem)?;
@@ -132,12 +249,12 @@ fn add_rendered(plan: &Plan, frame: &mut PlannedFrame, rendered: Option<&Path>) 
     Ok(())
 }
 
-fn plan_seven_scenes(plan: &mut Plan, rendered: Option<&Path>) -> Result<()> {
+/// Lists the frames of a 7-Scenes scene; returns what the count check counts.
+fn plan_seven_scenes(plan: &mut Plan, rendered: Option<&Path>) -> Result<String> {
+    let layout = plan.descriptor.seven_scenes()?;
+    let (train_file, test_file) = (layout.train_split.clone(), layout.test_split.clone());
     let mut seen: BTreeMap<String, (PathBuf, usize)> = BTreeMap::new();
-    for (split, file) in [
-        (Split::Train, sevenscenes::TRAIN_SPLIT_FILE),
-        (Split::Test, sevenscenes::TEST_SPLIT_FILE),
-    ] {
+    for (split, file) in [(Split::Train, &train_file), (Split::Test, &test_file)] {
         let split_path = plan.scene_dir.join(file);
         let seqs = sevenscenes::parse_split_file(&split_path)?;
         plan.scene_inputs
@@ -183,25 +300,31 @@ fn plan_seven_scenes(plan: &mut Plan, rendered: Option<&Path>) -> Result<()> {
             }
         }
     }
-    Ok(())
+    Ok(format!(
+        "frames of the sequences {train_file} / {test_file} list"
+    ))
 }
 
-fn plan_cambridge(plan: &mut Plan, rendered: Option<&Path>) -> Result<()> {
+/// Lists the frames of a Cambridge scene; returns what the count check counts.
+fn plan_cambridge(plan: &mut Plan, rendered: Option<&Path>) -> Result<String> {
+    let layout = plan.descriptor.cambridge()?;
+    let (train_file, test_file, nvm_file) = (
+        layout.train_split.clone(),
+        layout.test_split.clone(),
+        layout.nvm.clone(),
+    );
+    let max_abs_translation = layout.outlier_max_abs_translation;
     let nvm = match plan.camera {
         Some(_) => None,
         None => {
-            let p = plan.scene_dir.join(cambridge::NVM_FILE);
+            let p = plan.scene_dir.join(&nvm_file);
             let cams = nvm::NvmCameras::read(&p)?;
-            plan.scene_inputs
-                .push(("nvm", cambridge::NVM_FILE.to_string(), p.clone()));
+            plan.scene_inputs.push(("nvm", nvm_file.clone(), p.clone()));
             Some((p, cams))
         }
     };
     let mut seen: BTreeMap<String, (PathBuf, usize)> = BTreeMap::new();
-    for (split, file) in [
-        (Split::Train, cambridge::TRAIN_FILE),
-        (Split::Test, cambridge::TEST_FILE),
-    ] {
+    for (split, file) in [(Split::Train, &train_file), (Split::Test, &test_file)] {
         let split_path = plan.scene_dir.join(file);
         let rows = cambridge::read_split_file(&split_path)?;
         plan.scene_inputs
@@ -216,7 +339,9 @@ fn plan_cambridge(plan: &mut Plan, rendered: Option<&Path>) -> Result<()> {
                 });
             }
             seen.insert(row.name.clone(), (split_path.clone(), row.line));
-            if let Some(reason) = cambridge::outlier_reason(&row.pose) {
+            if let Some(reason) =
+                max_abs_translation.and_then(|max| cambridge::outlier_reason(&row.pose, max))
+            {
                 tracing::warn!(
                     "{}:{}: {} excluded: {reason}",
                     split_path.display(),
@@ -264,5 +389,7 @@ fn plan_cambridge(plan: &mut Plan, rendered: Option<&Path>) -> Result<()> {
             plan.frames.push(frame);
         }
     }
-    Ok(())
+    Ok(format!(
+        "rows of {train_file} / {test_file}, outlier poses included"
+    ))
 }

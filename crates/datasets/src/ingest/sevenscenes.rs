@@ -6,16 +6,17 @@
 //! - `pose.txt` is the camera-to-world 4x4 matrix of the Kinect *depth* camera (the poses
 //!   come from KinectFusion on the depth stream). `published` keeps it as the colour
 //!   camera's pose, as the dataset and kapture's trajectories do; `calibrated` moves it to
-//!   the colour camera with the depth-to-RGB extrinsic below, as ACE/DSAC* do.
-//! - The cameras are uncalibrated. Colour: SIMPLE_PINHOLE f=525 at the image centre
-//!   (DSAC*/ACE, kapture); depth: f=585 at (320, 240) (KinectFusion's defaults, quoted
-//!   by the dataset page). Both are read in COLMAP's pixel convention (the top-left pixel's
-//!   centre is (0.5, 0.5)), so (320, 240) is the exact image centre.
+//!   the colour camera with the Kinect depth-to-RGB extrinsic, as ACE/DSAC* do.
+//! - The split file names, the cameras and the extrinsic are the dataset descriptor's
+//!   (`[layouts.7scenes]` of `datasets/7scenes.toml`, which says where each comes from).
+//!   The cameras are uncalibrated. Colour: SIMPLE_PINHOLE f=525 at the image centre;
+//!   depth: f=585 at (320, 240). Both are read in COLMAP's pixel convention (the top-left
+//!   pixel's centre is (0.5, 0.5)), so (320, 240) is the exact image centre.
 
 use super::error::{IngestError, Result, io_err};
 use super::text::{numbered_lines, parse_err, parse_f64, read_text};
 use geometry::pose::check_rotation;
-use geometry::{Camera, CameraModel, GeometryError, Matrix3, Matrix4, Pose, Vector3};
+use geometry::{GeometryError, Matrix3, Matrix4, Pose};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
@@ -26,75 +27,6 @@ use std::path::{Path, PathBuf};
 /// refuses a corrupted matrix (a row scaled by 1 %, a wrong entry). The rotation kept is
 /// the closest one, as kapture's `quaternion.from_rotation_matrix` keeps.
 pub const POSE_ORTHONORMAL_TOLERANCE: f64 = 1e-2;
-
-pub const TRAIN_SPLIT_FILE: &str = "TrainSplit.txt";
-pub const TEST_SPLIT_FILE: &str = "TestSplit.txt";
-
-/// The colour camera every pipeline uses for 7-Scenes (640x480, f=525, centred).
-pub fn default_rgb_camera() -> Camera {
-    Camera {
-        model: CameraModel::SimplePinhole,
-        width: 640,
-        height: 480,
-        params: vec![525.0, 320.0, 240.0],
-    }
-}
-
-/// The depth camera (KinectFusion's defaults: 640x480, f=585, centred).
-pub fn depth_camera() -> Camera {
-    Camera {
-        model: CameraModel::SimplePinhole,
-        width: 640,
-        height: 480,
-        params: vec![585.0, 320.0, 240.0],
-    }
-}
-
-/// Rotation of the Kinect depth-to-RGB extrinsic: `X_rgb = R X_depth + t`.
-///
-/// Source: the LIRIS Kinect calibration
-/// (projet.liris.cnrs.fr/voir/activities-dataset/kinect-calibration.html), as hard-coded
-/// by nianticlabs/ace `datasets/setup_7scenes.py` (`d_to_rgb`, applied as
-/// `pose_rgb = pose @ inv(d_to_rgb)`) and by naver/kapture
-/// `tools/kapture_import_7scenes.py` (rig `kinect` -> sensor `kinect_rgb`, whose rigs.txt
-/// row in the shared sample holds the same translation and this matrix's quaternion).
-/// The `kapture_rig_matches_our_extrinsic` test checks it against that rigs.txt.
-pub const RGB_FROM_DEPTH_ROTATION: [[f64; 3]; 3] = [
-    [
-        9.9996518012567637e-01,
-        2.6765126468950343e-03,
-        -7.9041012313000904e-03,
-    ],
-    [
-        -2.7409311281316700e-03,
-        9.9996302803027592e-01,
-        -8.1504520778013286e-03,
-    ],
-    [
-        7.8819942130445332e-03,
-        8.1718328771890631e-03,
-        9.9993554558014031e-01,
-    ],
-];
-/// Translation (metres) of the depth-to-RGB extrinsic; same source as the rotation.
-pub const RGB_FROM_DEPTH_TRANSLATION: [f64; 3] = [
-    -2.5558943178152542e-02,
-    1.0109636268061706e-04,
-    2.0318321729487039e-03,
-];
-
-/// The depth-to-RGB extrinsic as a pose (`rgb_from_depth`). The published matrix is
-/// orthonormal to ~1e-8; the closest rotation is used, as kapture's
-/// `quaternion.from_rotation_matrix` (Bar-Itzhack) does.
-pub fn rgb_from_depth() -> Pose {
-    let r = Matrix3::from_fn(|i, j| RGB_FROM_DEPTH_ROTATION[i][j]);
-    let t = Vector3::from(RGB_FROM_DEPTH_TRANSLATION);
-    match Pose::from_rotation_matrix(&r, &t, 1e-6) {
-        Ok(p) => p,
-        // The constant is a rotation to 1e-8: unreachable, and tested.
-        Err(_) => Pose::identity(),
-    }
-}
 
 /// Reads a split file into `(line, sequence folder name)`, in file order.
 pub(crate) fn parse_split_file(path: &Path) -> Result<Vec<(usize, String)>> {
@@ -338,15 +270,6 @@ fn worst_row(r: &Matrix3<f64>) -> usize {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn extrinsic_is_a_rotation_and_matches_its_constant() {
-        let r = Matrix3::from_fn(|i, j| RGB_FROM_DEPTH_ROTATION[i][j]);
-        check_rotation(&r, 1e-7).unwrap();
-        let p = rgb_from_depth();
-        assert!((p.rotation_matrix() - r).abs().max() < 1e-7);
-        assert_eq!(p.tvec(), RGB_FROM_DEPTH_TRANSLATION);
-    }
 
     #[test]
     fn split_lines_map_like_ace() {
