@@ -213,7 +213,7 @@ fn refine_then_shard_on_the_synthetic_scene() {
     assert!(!mcap_files(&shards).is_empty());
 }
 
-/// Issue 4's ablation on the tiny synthetic scene: with `--label-noise-cm 5`, depth
+/// The label ablation (docs/training-notes.md, "Label ablation") on the tiny synthetic scene: with `--label-noise-cm 5`, depth
 /// refinement cuts the median 3D error of point AND line labels (against the exact
 /// labels the generator keeps in `sfm_gt/exact.json`) by >= 80 % and drops < 5 %.
 #[test]

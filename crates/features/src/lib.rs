@@ -3,7 +3,7 @@
 //! - SIFT keypoints (OpenCV), top-K by response, and 128-d SIFT descriptors computed at
 //!   GIVEN positions: at a fixed scale and upright orientation, the same way at training
 //!   time (positions from the SfM model, which stores neither scale nor orientation) and
-//!   at query time (positions from the detector). See specs/pl2map.md section 1.
+//!   at query time (positions from the detector). See docs/method.md section 1 (descriptor consistency).
 //! - LSD line segments (OpenCV `createLineSegmentDetector`), longest first.
 //! - T points sampled along each segment (endpoints included) with a descriptor at each,
 //!   oriented along the segment.

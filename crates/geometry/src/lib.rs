@@ -1,6 +1,6 @@
 //! Geometry shared by every stage of pl2map-rs.
 //!
-//! Conventions (see DESIGN.md): poses are world-to-camera (`X_cam = R X_world + t`,
+//! Conventions (see README.md, "Conventions"): poses are world-to-camera (`X_cam = R X_world + t`,
 //! Hamilton quaternion stored w-first); pixels follow COLMAP, so the centre of the
 //! top-left pixel is (0.5, 0.5); metres, pixels and radians everywhere.
 

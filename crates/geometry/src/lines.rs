@@ -185,7 +185,7 @@ pub fn clip_segment_to_image(seg: &Segment2, width: f64, height: f64) -> Option<
 }
 
 /// Sum of the distances of both endpoints of a detected 2D segment to the infinite
-/// line through a projected segment: the line reprojection error of specs/pl2map.md
+/// line through a projected segment: the line reprojection error of docs/method.md sections 4 and 6
 /// (and of PoseLib's line RANSAC). None when the projected segment is degenerate.
 pub fn line_reprojection_error(detected: &Segment2, projected: &Segment2) -> Option<f64> {
     let l = line_through(&projected.start, &projected.end)?;

@@ -1,4 +1,4 @@
-//! Pose error metrics of specs/pl2map.md section 6.
+//! Pose error metrics of docs/method.md section 6.
 
 use crate::pose::Pose;
 

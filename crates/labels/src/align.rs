@@ -1,4 +1,4 @@
-//! Endpoint order of a 3D line label relative to its 2D segment (specs/pl2map.md
+//! Endpoint order of a 3D line label relative to its 2D segment (docs/method.md
 //! section 3): LIMAP stores a track's endpoints in its own order, which says nothing
 //! about the direction of each supporting 2D segment. The label's first endpoint must be
 //! the one seen at the segment's (x1, y1), so that the line losses compare like with like.

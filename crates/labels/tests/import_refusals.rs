@@ -13,7 +13,7 @@ fn scene() -> Scene {
 
 fn refuse(scene: &Scene, config: &ImportConfig) -> ImportError {
     let out = scene.out("labels");
-    let e = import::run(&scene.with_inputs(&config), &scene.frames_path, &out)
+    let e = import::run(&scene.with_inputs(config), &scene.frames_path, &out)
         .expect_err("the import must refuse this input");
     // Nothing is written for refused input.
     assert!(!out.join("stage.json").exists());

@@ -1,6 +1,6 @@
 //! LIMAP line-mapping outputs: read, write and cross-check them.
 //!
-//! Formats (specs/formats.md section 2, LIMAP `util/io.py` and `base/linetrack.cc`):
+//! Formats (docs/formats.md section 2, LIMAP `util/io.py` and `base/linetrack.cc`):
 //! - `finaltracks/track_<i>.txt` ([`parse_track`], [`format_track`]): one track, fixed
 //!   notation with 10 decimals, optional auxiliary sections.
 //! - `alltracks.txt` ([`parse_alltracks`], [`format_alltracks`]): the tracks seen in >= 4

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """One PL2Map training step (forward + loss + backward + Adam) in PyTorch, for comparison
 with the burn implementation of crates/model (`cargo run --release -p model --example
-step_bench`). Written from specs/pl2map.md sections 2 and 4, like the Rust crate:
+step_bench`). Written from docs/method.md sections 2 and 4, like the Rust crate:
 
 - line encoder: one post-LN transformer block over T tokens (4 heads, contiguous split,
   LayerNorm eps 1e-6, FFN D->4D->D exact GELU, dropout 0.1 on attention weights, attention

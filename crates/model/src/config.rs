@@ -1,4 +1,4 @@
-//! Network configuration (section 2 of specs/pl2map.md), serialisable so that a checkpoint
+//! Network configuration (docs/method.md section 2), serialisable so that a checkpoint
 //! can record exactly which network it holds.
 
 use crate::error::ModelError;
@@ -45,8 +45,8 @@ pub struct ModelConfig {
     /// Multiplies the point descriptors before the graph network (1 = the reference).
     /// L2-normalised descriptors have per-dimension scale 1/sqrt(D), while the line
     /// stream leaves the line encoder LayerNorm-ed (scale 1): sqrt(D) puts both streams
-    /// on the same scale, and the heads learn much faster (see the README's training
-    /// notes). Lines are not scaled: it would sharpen the line encoder's softmax.
+    /// on the same scale, and the heads learn much faster (see docs/training-notes.md).
+    /// Lines are not scaled: it would sharpen the line encoder's softmax.
     #[serde(default = "unit_scale", skip_serializing_if = "is_unit_scale")]
     pub point_input_scale: f64,
 }

@@ -1,4 +1,4 @@
-//! The PL2Map network and its losses on burn (specs/pl2map.md sections 2 and 4).
+//! The PL2Map network and its losses on burn (docs/method.md sections 2 and 4).
 //!
 //! - [`ModelConfig`] describes a network; [`ModelConfig::init`] builds a [`Pl2Map`] whose
 //!   weights are a pure function of a seed.

@@ -1,4 +1,4 @@
-//! Losses of section 4 of specs/pl2map.md, per image:
+//! Losses of docs/method.md section 4, per image:
 //! L = delta_m L_m + delta_r L_r + delta_pi L_pi.
 //!
 //! Choices this crate makes where the spec leaves room (recorded in `LossConfig`):

@@ -1,6 +1,6 @@
 //! The tiny synthetic pipeline end to end through the library: a second run skips every
 //! stage, a changed `[refine]` reruns refine and shard only, the committed lock file
-//! `manifests/synthetic-tiny.toml` verifies (the CI check of issue 7) and a tampered one
+//! `manifests/synthetic-tiny.toml` verifies (a CI check: README.md, "Pipelines and datasets") and a tampered one
 //! fails naming the shard.
 
 use pipeline::{Lock, Pipeline, RunOptions, StageName, Status, lock, run};

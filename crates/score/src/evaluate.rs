@@ -40,7 +40,7 @@ impl Variant {
 }
 
 /// Reliability filters and RANSAC settings. Defaults: the reference evaluation's
-/// (specs/pl2map.md section 6): r >= 0.5 for points, r >= 0.02 for lines, 12 px / 10 px.
+/// (docs/method.md section 6): r >= 0.5 for points, r >= 0.02 for lines, 12 px / 10 px.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct ScoreConfig {
     pub min_point_reliability: f64,

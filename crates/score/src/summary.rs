@@ -1,5 +1,5 @@
 //! Aggregates over the scored frames: medians and accuracies per variant (the metrics
-//! of `geometry::metrics`, specs/pl2map.md section 6), as a markdown table and JSON.
+//! of `geometry::metrics`, docs/method.md section 6), as a markdown table and JSON.
 //! Both leave timings out so that a rerun writes the same bytes; the per-frame table and
 //! [`timing_table`] carry them.
 

@@ -1,4 +1,4 @@
-//! MCAP label shards (docs/formats.md, "Label shards") and the shard stage that writes
+//! MCAP label shards (docs/formats.md section 4) and the shard stage that writes
 //! them from the frames and label tables ([`shard_stage`]).
 //!
 //! A shard is one MCAP file holding up to `frames_per_shard` consecutive frames of a

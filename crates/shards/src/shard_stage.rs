@@ -1,5 +1,5 @@
 //! The shard stage: frames table + label tables -> MCAP shards and their manifest
-//! (docs/formats.md, "Label shards"), written by this crate's writer.
+//! (docs/formats.md section 4), written by this crate's writer.
 //!
 //! Training frames go into `train-<k>.mcap` shards with their labels, the camera and
 //! pose of the label tables (the ones the labels were made with). Test frames go, in

@@ -30,7 +30,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     };
     let mut descs: Vec<f32> = Vec::new();
     let mut xyz: Vec<[f64; 3]> = Vec::new();
-    for f in ShardReader::open(&files("train-"))? {
+    for f in ShardReader::open(files("train-"))? {
         let f = f?;
         let gray = image::load_from_memory(&f.image_bytes)?.to_luma8();
         let pos: Vec<[f64; 2]> = (0..f.keypoints.len())
@@ -62,7 +62,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     )?;
     let (mut qd, mut qg) = (Vec::<f32>::new(), Vec::<f32>::new());
     let mut errs = Vec::new();
-    let frames: Vec<_> = ShardReader::open(&files("test-"))?.collect::<Result<Vec<_>, _>>()?;
+    let frames: Vec<_> = ShardReader::open(files("test-"))?.collect::<Result<Vec<_>, _>>()?;
     let step = (frames.len() / test_frames).max(1);
     for f in frames.iter().step_by(step).take(test_frames) {
         assert_eq!(f.split, Split::Test);

@@ -1,4 +1,4 @@
-//! Training augmentation (specs/pl2map.md section 5): brightness, contrast, scale and
+//! Training augmentation (docs/method.md section 5): brightness, contrast, scale and
 //! in-plane rotation, with keypoints, segments, intrinsics and pose following the image.
 //!
 //! Geometry. Scaling the image by `s` maps a pixel `p` to `s p` (COLMAP corner origin)

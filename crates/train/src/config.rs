@@ -45,7 +45,7 @@ pub struct TrainConfig {
     pub iterations: u64,
     /// Images per step (their losses averaged). The reference uses 1 and 1.5 M steps; a
     /// step's images come from one region of the scene, and on a short CPU budget
-    /// several images per step learn much faster (README "Training"). Images of equal
+    /// several images per step learn much faster (docs/training-notes.md, "Earlier measurements"). Images of equal
     /// size (the limits make most so) go through the network stacked, so a step of 8
     /// costs far less than 8 steps of 1.
     #[arg(long, default_value_t = TrainConfig::default().batch_frames)]

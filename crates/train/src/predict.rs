@@ -15,7 +15,7 @@
 //!   the network in evaluation mode (no dropout), on the CPU backend.
 //! - Outputs are in input order, world coordinates, pixels in COLMAP's convention (centre
 //!   of the top-left pixel at (0.5, 0.5)). Filter by reliability as the caller needs
-//!   (specs/pl2map.md section 6: r >= 0.5 for points, r >= 0.02 for lines).
+//!   (docs/method.md section 6: r >= 0.5 for points, r >= 0.02 for lines).
 //! - The camera is only checked against the image size: the network needs no intrinsics.
 //!   A `Predictor` is `Send + Sync`; `predict` takes `&self`.
 

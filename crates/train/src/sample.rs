@@ -674,7 +674,7 @@ mod tests {
     #[test]
     fn prefilled_cache_gives_the_described_samples() {
         let dir = tempfile::tempdir().unwrap();
-        let paths = crate::testutil::write_synthetic_shards(dir.path(), 2, 3, 0.0);
+        let paths = write_synthetic_shards(dir.path(), 2, 3, 0.0);
         let fe = front_end();
         let limits = Limits {
             max_keypoints: 7,

@@ -145,12 +145,16 @@ pub fn run(
         None => None,
     };
     let stage = Stage::new(STAGE, dir, &config, inputs)?;
-    if stage.check()? == RecordCheck::UpToDate {
-        return Ok(Done {
-            output: output(None),
-            skipped: true,
-            seconds: start.elapsed().as_secs_f64(),
-        });
+    match stage.check()? {
+        RecordCheck::UpToDate => {
+            return Ok(Done {
+                output: output(None),
+                skipped: true,
+                seconds: start.elapsed().as_secs_f64(),
+            });
+        }
+        RecordCheck::Missing => {}
+        RecordCheck::Changed(why) => tracing::info!("train: rerunning ({why})"),
     }
     if paths.is_empty() {
         return Err(TrainError::Config(format!(

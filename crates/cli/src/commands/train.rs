@@ -91,3 +91,46 @@ pub fn run(args: Args, matches: &clap::ArgMatches, quiet: bool) -> anyhow::Resul
     println!("model: {}", done.output.model.display());
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::{CommandFactory, FromArgMatches, Parser};
+
+    #[derive(Parser)]
+    struct Cli {
+        #[command(flatten)]
+        args: Args,
+    }
+
+    fn config(argv: &[&str], file: &str) -> TrainConfig {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("train.toml");
+        std::fs::write(&path, file).unwrap();
+        let mut full = vec!["x", "--shards", "s", "--out", "o", "--config"];
+        let p = path.to_str().unwrap().to_string();
+        full.push(&p);
+        full.extend_from_slice(argv);
+        let matches = Cli::command().get_matches_from(full);
+        let cli = Cli::from_arg_matches(&matches).unwrap();
+        let base = TrainConfig::from_toml_file(&path).unwrap();
+        override_given(&base, &cli.args.settings, &matches).unwrap()
+    }
+
+    /// `pl2map train --config` gives the trainer exactly the `[train]` section a
+    /// pipeline would (so it finds the pipeline's train stage up to date), and a flag
+    /// given on the command line replaces only its own key.
+    #[test]
+    fn a_config_file_and_flags() {
+        let text =
+            "iterations = 100\ncheckpoint_every = 50\nseed = 0\n[augment]\nprobability = 0.0\n";
+        let from_pipeline: TrainConfig = toml::from_str(text).unwrap();
+        assert_eq!(config(&[], text), from_pipeline);
+        assert_eq!(
+            stage::hash_config(&config(&[], text)).unwrap(),
+            stage::hash_config(&from_pipeline).unwrap()
+        );
+        let c = config(&["--seed", "3"], text);
+        assert_eq!((c.seed, c.iterations), (3, 100));
+    }
+}

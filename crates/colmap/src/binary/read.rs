@@ -1,4 +1,4 @@
-//! Parsers of the binary files (layouts in specs/formats.md section 1). Each parser
+//! Parsers of the binary files (layouts in docs/formats.md section 1). Each parser
 //! takes the whole file as bytes; counts are checked against the bytes that remain
 //! before anything is allocated from them.
 

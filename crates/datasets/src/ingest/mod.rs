@@ -1,5 +1,5 @@
 //! The ingest stage: reads a dataset in its published layout and writes the frames table
-//! (DESIGN.md "Data flow"). One adapter per dataset converts its conventions once, here:
+//! (ARCHITECTURE.md, "Data flow"; the layouts read are in docs/formats.md section 3). One adapter per dataset converts its conventions once, here:
 //! poses become world-to-camera, cameras COLMAP models, names dataset-relative paths.
 //!
 //! Stage folder layout: `frames.parquet` (see [`tables::frames`]), `depth/<stem>.depth.png`

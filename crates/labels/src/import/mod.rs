@@ -84,11 +84,9 @@ pub struct ImportConfig {
     /// The LIMAP segments folder, relative to the LIMAP folder; default: the only one of
     /// `line_detections/*/segments` and `segments`.
     #[arg(long)]
-    #[serde(skip_serializing_if = "Option::is_none")]
     pub limap_segments: Option<PathBuf>,
     /// The LIMAP track folder, relative to the LIMAP folder; default: `finaltracks`.
     #[arg(long)]
-    #[serde(skip_serializing_if = "Option::is_none")]
     pub limap_tracks: Option<PathBuf>,
 }
 

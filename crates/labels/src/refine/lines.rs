@@ -121,6 +121,10 @@ fn ratio_ok(config: &RefineConfig, inliers: usize, total: usize) -> bool {
     total > 0 && inliers as f64 >= config.line_min_inlier_ratio * total as f64
 }
 
+/// An accepted support of a track: its row, the inlier samples of its first fitting
+/// set, and all its sets.
+type Accepted<'a> = (usize, Vec<Vector3<f64>>, &'a [Vec<Vector3<f64>>]);
+
 fn refine_track(
     config: &RefineConfig,
     key: i64,
@@ -132,7 +136,7 @@ fn refine_track(
     let mut rng = ChaCha8Rng::seed_from_u64(seed_of(config.seed, key));
     let mut outcomes: Vec<(usize, Outcome)> = Vec::with_capacity(members.len());
     // Accepted supports: (row, inlier samples of its first fitting set, all its sets).
-    let mut accepted: Vec<(usize, Vec<Vector3<f64>>, &[Vec<Vector3<f64>>])> = Vec::new();
+    let mut accepted: Vec<Accepted> = Vec::new();
     for &i in members {
         match observed.get(&i) {
             None => {}

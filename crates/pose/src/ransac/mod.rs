@@ -52,7 +52,7 @@ pub struct LineMatch {
 }
 
 /// RANSAC and refinement settings. The defaults are the reference evaluation's
-/// (specs/pl2map.md section 6) and PoseLib 2.0.5's.
+/// (docs/method.md section 6) and PoseLib 2.0.5's.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
 pub struct RansacOptions {
