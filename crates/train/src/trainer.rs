@@ -22,10 +22,9 @@ use crate::plot::{PLOT_FILE, plot_metrics};
 use crate::sample::{DescriptorCache, label_centre, prepare_with_cache, recentre};
 use crate::seeds::{self, Purpose};
 use crate::stream::{FrameStream, StreamConfig};
-use indicatif::{ProgressBar, ProgressStyle};
+use indicatif::ProgressBar;
 use model::burn::tensor::backend::AutodiffBackend;
 use model::{LossValues, Pl2MapBackend, StepOptions, TrainState};
-use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -103,17 +102,13 @@ fn mean_losses(window: &[LossValues]) -> MeanLosses {
     }
 }
 
+/// The run's bar (the workspace's one progress mechanism: hidden when stderr is not a
+/// terminal or with `--quiet`), at the resumed iteration.
 fn progress_bar(total: u64, start: u64, show: bool) -> ProgressBar {
-    if !show || !std::io::stderr().is_terminal() {
+    if !show {
         return ProgressBar::hidden();
     }
-    let bar = ProgressBar::new(total);
-    let style = ProgressStyle::with_template(
-        "{elapsed_precise} [{bar:30}] {pos}/{len} ({per_sec}, ETA {eta_precise}) {msg}",
-    )
-    .unwrap_or_else(|_| ProgressStyle::default_bar())
-    .progress_chars("=> ");
-    bar.set_style(style);
+    let bar = stage::progress_bar(total, "train");
     bar.set_position(start);
     bar
 }
