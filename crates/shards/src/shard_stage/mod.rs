@@ -21,19 +21,27 @@
 //! shard is rewritten only if its own frames did: every written shard gets a source
 //! digest file (`crate::SourceDigest`, over its frames' label messages and image hashes),
 //! and a shard whose digest is unchanged and whose bytes are intact is kept.
+//!
+//! This file holds the stage's configuration, plan and run; what goes into a frame's
+//! record is `source.rs`, and the work units' manifests (checking and merging them) are
+//! `units.rs`.
+
+mod source;
+mod units;
 
 use crate::{
-    FrameRecord, ImageFormat, Manifest, ShardConfig, ShardError, ShardJob, ShardPlan, SourceDigest,
-    plan_shards, write_shards,
+    FrameRecord, Manifest, ShardConfig, ShardError, ShardJob, ShardPlan, plan_shards, write_shards,
 };
 use serde::{Deserialize, Serialize};
+use source::{Source, ranges_by_frame};
 use stage::{Done, RecordCheck, Stage};
-use std::collections::{BTreeMap, BTreeSet, HashMap};
+use std::collections::{BTreeMap, BTreeSet};
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 use tables::labels::{LINES_FILE, POINTS_FILE, POSES_FILE};
-use tables::{Frame, FramesTable, LabelTables, Split, TableError};
+use tables::{FramesTable, LabelTables, Split, TableError};
 use thiserror::Error;
+use units::{finish_if_complete, load_manifest, save_record, unit_manifest_name, unit_up_to_date};
 
 pub const STAGE: &str = "shard";
 pub const MANIFEST_FILE: &str = "manifest.json";
@@ -146,29 +154,6 @@ pub enum ShardStageError {
     Config(String),
 }
 
-/// Why one frame could not be loaded (reported by the shards crate with its frame id).
-#[derive(Debug, Error)]
-enum SourceError {
-    #[error("{}: {source}", path.display())]
-    Read {
-        path: PathBuf,
-        source: std::io::Error,
-    },
-    #[error(
-        "{}: the file changed since ingest (sha256 {actual}, the frames table says {expected})",
-        path.display()
-    )]
-    Changed {
-        path: PathBuf,
-        expected: String,
-        actual: String,
-    },
-    #[error("{}: not a PNG or JPEG file", path.display())]
-    Format { path: PathBuf },
-    #[error("frame {0} is not in the plan's tables")]
-    Unknown(u64),
-}
-
 /// What a run did.
 #[derive(Clone, Debug)]
 pub struct ShardOutput {
@@ -257,158 +242,6 @@ pub fn shards_of_split(manifest: &Manifest, split: Split) -> Vec<&crate::Manifes
         .iter()
         .filter(|s| s.file.starts_with(prefix))
         .collect()
-}
-
-fn unit_manifest_name(range: &Range<usize>) -> String {
-    format!("manifest.{}-{}.json", range.start, range.end)
-}
-
-fn load_manifest(path: &Path) -> Result<Option<Manifest>, ShardStageError> {
-    if !path.is_file() {
-        return Ok(None);
-    }
-    Manifest::load(path)
-        .map(Some)
-        .map_err(|e| ShardStageError::Manifest {
-            path: path.to_path_buf(),
-            reason: e.to_string(),
-        })
-}
-
-/// Whether a unit manifest describes this run and its shards are intact.
-fn unit_up_to_date(m: &Manifest, dir: &Path, expected: &Manifest) -> Result<bool, ShardStageError> {
-    if (
-        &m.config_hash,
-        &m.inputs,
-        &m.tool_version,
-        m.format_version,
-        m.planned_shards,
-        m.planned_frames,
-    ) != (
-        &expected.config_hash,
-        &expected.inputs,
-        &expected.tool_version,
-        expected.format_version,
-        expected.planned_shards,
-        expected.planned_frames,
-    ) {
-        return Ok(false);
-    }
-    for s in &m.shards {
-        let p = dir.join(&s.file);
-        if !p.is_file() || stage::sha256_file(&p)? != s.sha256 {
-            return Ok(false);
-        }
-    }
-    Ok(true)
-}
-
-/// One frame's record: labels for training frames, none for test frames.
-struct Source<'a> {
-    frames: HashMap<u64, &'a Frame>,
-    labels: &'a LabelTables,
-    /// frame id -> (pose row, point rows, line rows)
-    train: HashMap<u64, (usize, Range<usize>, Range<usize>)>,
-}
-
-fn ranges_by_frame(ids: impl Iterator<Item = u32>) -> HashMap<u32, Range<usize>> {
-    let mut out: HashMap<u32, Range<usize>> = HashMap::new();
-    for (i, f) in ids.enumerate() {
-        out.entry(f)
-            .and_modify(|r| r.end = i + 1)
-            .or_insert(i..i + 1);
-    }
-    out
-}
-
-impl Source<'_> {
-    /// The frame's record without its image (bytes empty, format a placeholder) and the
-    /// image's content hash from the frames table: what its shard's digest is made of.
-    fn describe(&self, frame_id: u64) -> Result<(FrameRecord, &Frame), SourceError> {
-        let f = *self
-            .frames
-            .get(&frame_id)
-            .ok_or(SourceError::Unknown(frame_id))?;
-        let split = f.split;
-        let mut rec = FrameRecord {
-            label_source: self.labels.source,
-            ..FrameRecord::unlabelled(
-                frame_id,
-                f.name.clone(),
-                split,
-                f.camera.clone(),
-                f.pose,
-                Vec::new(),
-                ImageFormat::Png,
-            )
-        };
-        if let Some((pose_row, prange, lrange)) = self.train.get(&frame_id) {
-            let view = &self.labels.poses[*pose_row];
-            rec.camera = view.camera.clone();
-            rec.pose = view.pose;
-            for p in &self.labels.points[prange.clone()] {
-                rec.keypoints.push(p.xy);
-                rec.point3d_ids.push(p.point3d_id);
-                rec.points3d.push(p.xyz.unwrap_or([f64::NAN; 3]));
-                rec.point_valid.push(p.xyz.is_some());
-            }
-            for l in &self.labels.lines[lrange.clone()] {
-                rec.segments.push(l.segment);
-                rec.track_ids.push(l.track_id);
-                let e = l.endpoints.unwrap_or([[f64::NAN; 3]; 2]);
-                rec.lines3d
-                    .push([e[0][0], e[0][1], e[0][2], e[1][0], e[1][1], e[1][2]]);
-                rec.line_valid.push(l.endpoints.is_some());
-            }
-        }
-        Ok((rec, f))
-    }
-
-    /// The frame's record with its image file, which must still be the one ingested.
-    fn load(&self, frame_id: u64) -> Result<FrameRecord, SourceError> {
-        let (mut rec, f) = self.describe(frame_id)?;
-        let bytes = std::fs::read(&f.path).map_err(|source| SourceError::Read {
-            path: f.path.clone(),
-            source,
-        })?;
-        let actual = stage::sha256_bytes(&bytes);
-        if actual != f.content_hash {
-            return Err(SourceError::Changed {
-                path: f.path.clone(),
-                expected: f.content_hash.clone(),
-                actual,
-            });
-        }
-        rec.image_format = ImageFormat::sniff(&bytes).ok_or_else(|| SourceError::Format {
-            path: f.path.clone(),
-        })?;
-        rec.image_bytes = bytes;
-        Ok(rec)
-    }
-
-    /// The source digest of every planned shard (`crate::SourceDigest`).
-    fn digests(
-        &self,
-        plans: &[ShardPlan],
-        config: &ShardConfig,
-    ) -> Result<Vec<String>, ShardStageError> {
-        plans
-            .iter()
-            .map(|plan| {
-                let mut d = SourceDigest::new(config, &plan.file_name);
-                for &id in &plan.frame_ids {
-                    let (rec, f) = self.describe(id).map_err(|e| {
-                        ShardStageError::Shards(ShardError::Source {
-                            frame_id: id,
-                            source: Box::new(e),
-                        })
-                    })?;
-                    d.add_frame(&rec, &f.content_hash);
-                }
-                Ok(d.finish())
-            })
-            .collect()
-    }
 }
 
 /// Writes shards `range` of the run's plan (None: all) into `out`.
@@ -594,55 +427,4 @@ fn remove_file(path: &Path) -> Result<(), ShardStageError> {
             source,
         }),
     }
-}
-
-fn save_record(stage: &Stage, manifest: &Manifest) -> Result<(), ShardStageError> {
-    let mut outputs = stage.begin()?;
-    // The writer hashed every shard as it wrote it.
-    for s in &manifest.shards {
-        outputs.add_hashed(&s.file, &s.sha256);
-    }
-    outputs.path(MANIFEST_FILE);
-    outputs.finish()?;
-    Ok(())
-}
-
-/// Merges the unit manifests of this run found in `out`; when they cover the whole
-/// plan, writes `manifest.json` and `stage.json`.
-fn finish_if_complete(stage: &Stage, expected: &Manifest) -> Result<bool, ShardStageError> {
-    let out = stage.dir();
-    let io = |source| ShardStageError::Io {
-        path: out.to_path_buf(),
-        source,
-    };
-    let mut names = Vec::new();
-    for entry in std::fs::read_dir(out).map_err(io)? {
-        let name = entry
-            .map_err(io)?
-            .file_name()
-            .to_string_lossy()
-            .into_owned();
-        if name.starts_with("manifest.") && name.ends_with(".json") && name != MANIFEST_FILE {
-            names.push(name);
-        }
-    }
-    names.sort();
-    let mut units = Vec::new();
-    for name in names {
-        if let Some(m) = load_manifest(&out.join(&name))?
-            && unit_up_to_date(&m, out, expected)?
-        {
-            units.push(m);
-        }
-    }
-    if units.is_empty() {
-        return Ok(false);
-    }
-    let merged = Manifest::merge(&units)?;
-    if !merged.is_complete() {
-        return Ok(false);
-    }
-    merged.save(out.join(MANIFEST_FILE))?;
-    save_record(stage, &merged)?;
-    Ok(true)
 }
