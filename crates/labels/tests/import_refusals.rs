@@ -1,11 +1,9 @@
 //! Every inconsistency the import refuses, one test each, with the message it gives.
 
-mod common;
-
-use common::{Scene, SceneOptions};
 use labels::NameMapping;
 use labels::import::{self, ImportConfig, ImportError, ImportProblem};
 use tables::frames::{Frame, Split};
+use testkit::scene::{Scene, SceneOptions};
 
 fn scene() -> Scene {
     Scene::build(&SceneOptions::default())
@@ -13,7 +11,7 @@ fn scene() -> Scene {
 
 fn refuse(scene: &Scene, config: &ImportConfig) -> ImportError {
     let out = scene.out("labels");
-    let e = import::run(&scene.with_inputs(&config), &scene.frames_path, &out)
+    let e = import::run(&scene.with_inputs(config), &scene.frames_path, &out)
         .expect_err("the import must refuse this input");
     // Nothing is written for refused input.
     assert!(!out.join("stage.json").exists());
