@@ -6,6 +6,7 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
+use testkit::files::folder_bytes;
 
 fn pl2map() -> Command {
     let mut c = Command::new(env!("CARGO_BIN_EXE_pl2map"));
@@ -119,25 +120,6 @@ fn mcap_files(dir: &Path) -> Vec<PathBuf> {
     v
 }
 
-/// Every file of a folder (recursively) with its bytes, by relative path.
-fn folder(dir: &Path) -> Vec<(String, Vec<u8>)> {
-    let mut out = Vec::new();
-    let mut stack = vec![dir.to_path_buf()];
-    while let Some(d) = stack.pop() {
-        for e in std::fs::read_dir(&d).unwrap() {
-            let p = e.unwrap().path();
-            if p.is_dir() {
-                stack.push(p);
-            } else {
-                let rel = p.strip_prefix(dir).unwrap().to_string_lossy().into_owned();
-                out.push((rel, std::fs::read(&p).unwrap()));
-            }
-        }
-    }
-    out.sort();
-    out
-}
-
 #[test]
 fn killed_shard_run_reruns_to_the_same_manifest() {
     let p = prepare();
@@ -184,11 +166,14 @@ fn killed_shard_run_reruns_to_the_same_manifest() {
         shard_cmd(&p, &killed).output().unwrap(),
         "rerun after the kill",
     );
-    let (a, b) = (folder(&clean), folder(&killed));
-    let names = |v: &[(String, Vec<u8>)]| v.iter().map(|x| x.0.clone()).collect::<Vec<_>>();
-    assert_eq!(names(&a), names(&b), "different files after the rerun");
+    let (a, b) = (folder_bytes(&clean), folder_bytes(&killed));
+    assert_eq!(
+        a.keys().collect::<Vec<_>>(),
+        b.keys().collect::<Vec<_>>(),
+        "different files after the rerun"
+    );
     // Manifest, stage record and every shard: the same bytes.
-    for ((name, x), (_, y)) in a.iter().zip(&b) {
+    for ((name, x), y) in a.iter().zip(b.values()) {
         assert!(
             x == y,
             "{name} differs between the clean and the resumed run"

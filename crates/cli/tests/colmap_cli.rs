@@ -1,6 +1,6 @@
 //! `pl2map colmap info|convert` end to end, through the built binary.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Command, Output};
 
 fn pl2map(args: &[&std::ffi::OsStr]) -> Output {
@@ -18,19 +18,6 @@ fn ok(out: &Output) -> String {
         String::from_utf8_lossy(&out.stderr)
     );
     String::from_utf8(out.stdout.clone()).unwrap()
-}
-
-fn sample_data(sub: &str) -> Option<PathBuf> {
-    let root = std::env::var_os("PL2MAP_SAMPLE_DATA")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data"));
-    let dir = root.join(sub);
-    if dir.is_dir() {
-        Some(dir)
-    } else {
-        eprintln!("SKIP: sample data {} not found", dir.display());
-        None
-    }
 }
 
 fn same_files(a: &Path, b: &Path, ext: &str) {
@@ -112,7 +99,7 @@ fn info_and_convert_on_a_generated_model() {
 
 #[test]
 fn info_and_convert_on_real_models() {
-    let Some(scene) = sample_data("colmap-maupertuis") else {
+    let Some(scene) = testkit::sample::sample_data("colmap-maupertuis") else {
         return;
     };
     let summary: serde_json::Value = serde_json::from_str(

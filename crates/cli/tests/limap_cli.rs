@@ -23,19 +23,6 @@ fn expected() -> Value {
         .unwrap()
 }
 
-fn copy_dir(from: &Path, to: &Path) {
-    std::fs::create_dir_all(to).unwrap();
-    for entry in std::fs::read_dir(from).unwrap() {
-        let p = entry.unwrap().path();
-        let target = to.join(p.file_name().unwrap());
-        if p.is_dir() {
-            copy_dir(&p, &target);
-        } else {
-            std::fs::copy(&p, &target).unwrap();
-        }
-    }
-}
-
 #[test]
 fn info_json_matches_the_fixture() {
     let dir = data().join("limap-mini");
@@ -113,7 +100,7 @@ fn info_text_lists_counts_and_checks() {
 #[test]
 fn info_fails_on_inconsistent_folders_after_reporting() {
     let tmp = tempfile::tempdir().unwrap();
-    copy_dir(&data().join("limap-mini"), tmp.path());
+    testkit::files::copy_dir(&data().join("limap-mini"), tmp.path());
     // Point support 0 of track_1.txt at an image that is not listed.
     let p = tmp.path().join("finaltracks/track_1.txt");
     let text = std::fs::read_to_string(&p).unwrap();
@@ -160,7 +147,7 @@ fn info_fails_on_inconsistent_folders_after_reporting() {
 #[test]
 fn info_names_the_broken_file() {
     let tmp = tempfile::tempdir().unwrap();
-    copy_dir(&data().join("limap-mini"), tmp.path());
+    testkit::files::copy_dir(&data().join("limap-mini"), tmp.path());
     std::fs::remove_file(tmp.path().join("finaltracks/track_4.txt")).unwrap();
     let out = pl2map(&["limap", "info", tmp.path().to_str().unwrap()]);
     assert!(!out.status.success());

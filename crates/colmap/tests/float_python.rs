@@ -1,13 +1,11 @@
 //! Our `%.17g` against Python's (correctly rounded, like glibc's printf that COLMAP's
 //! `<<` uses). Needs PL2MAP_PYTHON; skipped without it.
 
-use std::io::Write;
-use std::process::{Command, Stdio};
+use std::process::Command;
 
 #[test]
 fn g17_matches_python_printf() {
-    let Some(python) = std::env::var_os("PL2MAP_PYTHON") else {
-        eprintln!("SKIP: PL2MAP_PYTHON not set");
+    let Some(python) = testkit::python::python(&[]) else {
         return;
     };
     let mut values = Vec::new();
@@ -32,18 +30,6 @@ fn g17_matches_python_printf() {
             values.push(x);
         }
     }
-    let mut child = match Command::new(&python)
-        .args(["-c", "import sys,struct\nfor l in sys.stdin: print('%.17g' % struct.unpack('<d', bytes.fromhex(l.strip()))[0])"])
-        .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .spawn()
-    {
-        Ok(c) => c,
-        Err(e) => {
-            eprintln!("SKIP: cannot run {}: {e}", python.to_string_lossy());
-            return;
-        }
-    };
     let mut input = String::new();
     for x in &values {
         for b in x.to_le_bytes() {
@@ -51,12 +37,11 @@ fn g17_matches_python_printf() {
         }
         input.push('\n');
     }
-    let mut stdin = child.stdin.take().unwrap();
-    let writer = std::thread::spawn(move || stdin.write_all(input.as_bytes()));
-    let out = child.wait_with_output().unwrap();
-    writer.join().unwrap().unwrap();
-    assert!(out.status.success());
-    let text = String::from_utf8(out.stdout).unwrap();
+    let out = testkit::python::run_with_input(
+        Command::new(&python).args(["-c", "import sys,struct\nfor l in sys.stdin: print('%.17g' % struct.unpack('<d', bytes.fromhex(l.strip()))[0])"]),
+        input.into_bytes(),
+    );
+    let text = String::from_utf8(out).unwrap();
     let theirs: Vec<&str> = text.lines().collect();
     assert_eq!(theirs.len(), values.len());
     for (x, t) in values.iter().zip(theirs) {

@@ -1,8 +1,6 @@
 //! Real COLMAP models (shared/data) against what pycolmap 4.2.1 reads from them
 //! (pycolmap-summary.json, written by pycolmap, not by this project).
 
-mod common;
-
 use colmap::Reconstruction;
 use serde_json::Value;
 use std::path::Path;
@@ -127,7 +125,7 @@ fn check_against_summary(rec: &Reconstruction, s: &Value, what: &str) {
 
 #[test]
 fn maupertuis_every_variant_matches_pycolmap() {
-    let Some(scene) = common::sample_data("colmap-maupertuis") else {
+    let Some(scene) = testkit::sample::sample_data("colmap-maupertuis") else {
         return;
     };
     let s = summary(&scene);
@@ -157,7 +155,7 @@ fn maupertuis_every_variant_matches_pycolmap() {
 
 #[test]
 fn sacre_coeur_matches_pycolmap() {
-    let Some(scene) = common::sample_data("colmap-sacre-coeur") else {
+    let Some(scene) = testkit::sample::sample_data("colmap-sacre-coeur") else {
         return;
     };
     let s = summary(&scene);
@@ -172,7 +170,7 @@ fn sacre_coeur_matches_pycolmap() {
 /// UpdatePoint3DErrors) against pycolmap's mean.
 #[test]
 fn recomputed_reprojection_error_matches_pycolmap() {
-    let Some(scene) = common::sample_data("colmap-sacre-coeur") else {
+    let Some(scene) = testkit::sample::sample_data("colmap-sacre-coeur") else {
         return;
     };
     let s = summary(&scene);
@@ -198,7 +196,7 @@ fn recomputed_reprojection_error_matches_pycolmap() {
     // Maupertuis's poses were published with 6 significant digits while its stored
     // errors come from the full-precision poses, so recomputing moves the mean by
     // ~8e-5 (pycolmap itself gives 0.34262688 here); it must still be that close.
-    let Some(scene) = common::sample_data("colmap-maupertuis") else {
+    let Some(scene) = testkit::sample::sample_data("colmap-maupertuis") else {
         return;
     };
     let s = summary(&scene);

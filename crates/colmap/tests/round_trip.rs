@@ -1,12 +1,13 @@
 //! Round trips through our writers, against files COLMAP (pycolmap 4.2.1) wrote.
 
-mod common;
-
 use colmap::Reconstruction;
 use std::path::Path;
 
+/// The five files of a COLMAP model, by stem.
+const TABLES: [&str; 5] = ["cameras", "images", "points3D", "rigs", "frames"];
+
 fn assert_same_files(a: &Path, b: &Path, ext: &str) {
-    for t in common::TABLES {
+    for t in TABLES {
         let name = format!("{t}.{ext}");
         let x = std::fs::read(a.join(&name)).unwrap();
         let y = std::fs::read(b.join(&name)).unwrap();
@@ -36,7 +37,7 @@ const SCENES: [&str; 2] = ["colmap-maupertuis", "colmap-sacre-coeur"];
 #[test]
 fn binary_files_are_rewritten_byte_identically() {
     for scene in SCENES {
-        let Some(dir) = common::sample_data(scene) else {
+        let Some(dir) = testkit::sample::sample_data(scene) else {
             return;
         };
         let rec = colmap::read_binary(&dir.join("model-bin")).unwrap();
@@ -50,7 +51,7 @@ fn binary_files_are_rewritten_byte_identically() {
 #[test]
 fn text_writer_reproduces_colmap_text_files() {
     for scene in SCENES {
-        let Some(dir) = common::sample_data(scene) else {
+        let Some(dir) = testkit::sample::sample_data(scene) else {
             return;
         };
         let from_bin = colmap::read_binary(&dir.join("model-bin")).unwrap();
@@ -68,7 +69,7 @@ fn text_writer_reproduces_colmap_text_files() {
 #[test]
 fn bin_txt_bin_and_txt_bin_txt() {
     for scene in SCENES {
-        let Some(dir) = common::sample_data(scene) else {
+        let Some(dir) = testkit::sample::sample_data(scene) else {
             return;
         };
         let bin = colmap::read_binary(&dir.join("model-bin")).unwrap();
@@ -96,7 +97,7 @@ fn bin_txt_bin_and_txt_bin_txt() {
 /// the written model carries COLMAP's trivial rigs and frames.
 #[test]
 fn legacy_text_model_round_trips() {
-    let Some(dir) = common::sample_data("colmap-maupertuis") else {
+    let Some(dir) = testkit::sample::sample_data("colmap-maupertuis") else {
         return;
     };
     let orig = colmap::read_text(&dir.join("model-original-txt")).unwrap();

@@ -1,12 +1,11 @@
 //! Cambridge Landmarks ingest on small fixtures written in the published layout.
 
-mod ingest_common;
-
 use datasets::ingest::{self, DatasetKind, DepthOption, IngestConfig, IngestError};
 use geometry::{CameraModel, Pose, UnitQuaternion, Vector3};
-use ingest_common::*;
 use std::path::{Path, PathBuf};
 use tables::frames::Split;
+use testkit::images::write_depth;
+use testkit::layouts::{CAMBRIDGE_HEADER, cambridge, cambridge_row, fixture_pose};
 
 fn fixture() -> (tempfile::TempDir, PathBuf) {
     let dir = tempfile::tempdir().unwrap();
@@ -230,19 +229,19 @@ fn missing_image_and_duplicates() {
 fn rendered_depth_and_invalid_options() {
     let (dir, scene) = fixture();
     let rendered = dir.path().join("depth");
-    write_depth_png(
+    write_depth(
         &rendered.join("seq1/frame00001.depth.png"),
         32,
         24,
         |_, _| 5000,
     );
-    write_depth_png(
+    write_depth(
         &rendered.join("seq1/frame00002.depth.png"),
         32,
         24,
         |_, _| 5000,
     );
-    write_depth_png(
+    write_depth(
         &rendered.join("seq2/frame00001.depth.png"),
         32,
         24,

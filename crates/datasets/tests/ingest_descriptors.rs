@@ -2,16 +2,14 @@
 //! before (bit for bit), and ingest refuses a scene whose frame counts differ from its
 //! descriptor's unless the count check is off.
 
-mod ingest_common;
-
 use datasets::descriptor::{
     BUILTIN_NAMES, CountMismatch, Descriptor, DescriptorError, SplitCounts,
 };
 use datasets::ingest::{self, DatasetKind, DepthOption, IngestConfig, IngestError, PoseOption};
 use geometry::CameraModel;
-use ingest_common::*;
 use std::path::{Path, PathBuf};
 use tables::frames::Split;
+use testkit::layouts::{cambridge, seven_scenes};
 
 fn builtin(name: &str) -> Descriptor {
     Descriptor::builtin(name).unwrap()
@@ -185,11 +183,7 @@ fn synthetic_scene_has_no_fixed_counts() {
 // The count check.
 
 fn stairs_sample() -> Option<PathBuf> {
-    let Some(data) = sample_data() else {
-        eprintln!("SKIPPED no sample data (set PL2MAP_SAMPLE_DATA or provide ../shared/data)");
-        return None;
-    };
-    Some(data.join("7scenes-stairs-mini/stairs"))
+    testkit::sample::sample_data("7scenes-stairs-mini/stairs")
 }
 
 fn frame_counts(e: IngestError) -> (String, SplitCounts, Vec<CountMismatch>, String) {

@@ -1,12 +1,10 @@
 //! Interop: the frames table read by an independent parquet reader (pyarrow). Needs
 //! `PL2MAP_PYTHON` pointing at a python with pyarrow; skipped with a reason otherwise.
 
-mod ingest_common;
-
 use datasets::ingest::{self, DatasetKind, DepthOption, IngestConfig};
-use ingest_common::*;
 use std::process::Command;
 use tables::frames::{FramesTable, META_KEY};
+use testkit::layouts::seven_scenes;
 
 const SCRIPT: &str = r#"
 import json, sys
@@ -52,34 +50,21 @@ fn f64_from_hex(s: &str) -> f64 {
 
 #[test]
 fn pyarrow_reads_the_frames_table() {
-    let Some(python) = std::env::var_os("PL2MAP_PYTHON") else {
-        eprintln!("SKIP: PL2MAP_PYTHON is not set");
+    let Some(python) = testkit::python::python(&["pyarrow"]) else {
         return;
     };
-    let probe = Command::new(&python)
-        .args(["-c", "import pyarrow"])
-        .output();
-    if !probe.map(|o| o.status.success()).unwrap_or(false) {
-        eprintln!("SKIP: {} cannot import pyarrow", python.to_string_lossy());
-        return;
-    }
     let dir = tempfile::tempdir().unwrap();
     let scene = seven_scenes(dir.path(), 16, 12);
     let mut c = IngestConfig::new(DatasetKind::SevenScenes, &scene);
     c.camera = Some("SIMPLE_RADIAL 16 12 10.25 8 6 -0.0123".into());
     c.depth = DepthOption::Raw;
     let out = ingest::run(&c, &dir.path().join("out")).unwrap().output;
-    let res = Command::new(&python)
-        .args(["-c", SCRIPT])
-        .arg(&out.frames_path)
-        .output()
-        .unwrap();
-    assert!(
-        res.status.success(),
-        "{}",
-        String::from_utf8_lossy(&res.stderr)
+    let stdout = testkit::python::run(
+        Command::new(&python)
+            .args(["-c", SCRIPT])
+            .arg(&out.frames_path),
     );
-    let v: serde_json::Value = serde_json::from_slice(&res.stdout).unwrap();
+    let v: serde_json::Value = serde_json::from_slice(&stdout).unwrap();
     let schema: Vec<(String, String)> = serde_json::from_value(v["schema"].clone()).unwrap();
     let names: Vec<&str> = schema.iter().map(|(n, _)| n.as_str()).collect();
     assert_eq!(

@@ -1,17 +1,16 @@
 //! 7-Scenes ingest: the real sample against kapture's own import of it, and every bad
 //! input on small fixtures.
 
-mod ingest_common;
-
 use datasets::descriptor::{Descriptor, SevenScenesLayout};
 use datasets::ingest::{
     self, DatasetKind, DepthOption, IngestConfig, IngestError, PoseOption, depth,
 };
 use geometry::{GeometryError, Pose};
-use ingest_common::*;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use tables::frames::{FramesTable, Split};
+use testkit::images::{write_depth, write_rgb};
+use testkit::layouts::{fixture_pose, seven_scenes};
 
 // ---------------------------------------------------------------------------------------
 // The real sample against kapture-reference/.
@@ -27,11 +26,7 @@ use tables::frames::{FramesTable, Split};
 //   which is ACE's `pose_rgb = pose @ inv(d_to_rgb)` inverted.
 
 fn sample_scene() -> Option<(PathBuf, PathBuf)> {
-    let Some(data) = sample_data() else {
-        eprintln!("SKIP: no sample data (set PL2MAP_SAMPLE_DATA or provide ../shared/data)");
-        return None;
-    };
-    let base = data.join("7scenes-stairs-mini");
+    let base = testkit::sample::sample_data("7scenes-stairs-mini")?;
     Some((base.join("stairs"), base.join("kapture-reference")))
 }
 
@@ -366,7 +361,7 @@ fn missing_colour_frame() {
     }
     // Both encodings at once is ambiguous.
     let (_d, scene) = fixture();
-    write_rgb_png(&scene.join("seq-01/frame-000001.color.jpg"), 16, 12, 0);
+    write_rgb(&scene.join("seq-01/frame-000001.color.jpg"), 16, 12, 0);
     assert!(matches!(
         err(&fixture_config(&scene)),
         IngestError::Ambiguous { .. }
@@ -494,7 +489,7 @@ fn image_size_must_match_the_camera() {
 #[test]
 fn raw_depth_of_the_wrong_size() {
     let (dir, scene) = fixture();
-    write_depth_png(
+    write_depth(
         &scene.join("seq-01/frame-000001.depth.png"),
         320,
         240,
@@ -527,19 +522,19 @@ fn rendered_depth_is_found_by_name_and_checked_for_size() {
     let (dir, scene) = fixture();
     let rendered = dir.path().join("rendered");
     // hloc's flat names, DSAC*'s per-sequence names: both accepted.
-    write_depth_png(
+    write_depth(
         &rendered.join("seq01_frame-000000.pose.depth.png"),
         16,
         12,
         |_, _| 900,
     );
-    write_depth_png(
+    write_depth(
         &rendered.join("seq-01/frame-000001.depth.png"),
         16,
         12,
         |_, _| 900,
     );
-    write_depth_png(
+    write_depth(
         &rendered.join("seq-02-frame-000000.depth.png"),
         16,
         12,
@@ -555,7 +550,7 @@ fn rendered_depth_is_found_by_name_and_checked_for_size() {
     );
     assert!(t.meta.depth_source.starts_with("rendered"));
     // Wrong size.
-    write_depth_png(
+    write_depth(
         &rendered.join("seq-01/frame-000001.depth.png"),
         8,
         6,

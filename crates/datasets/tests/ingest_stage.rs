@@ -1,12 +1,10 @@
 //! The ingest stage folder: skipped reruns, reruns on any change, identical bytes for any
 //! thread count.
 
-mod ingest_common;
-
 use datasets::ingest::{self, DatasetKind, DepthOption, IngestConfig, PoseOption};
-use ingest_common::*;
 use std::path::Path;
 use tables::frames::FramesTable;
+use testkit::layouts::{fixture_pose, pose_txt, seven_scenes};
 
 fn config(scene: &Path) -> IngestConfig {
     let mut c = IngestConfig::new(DatasetKind::SevenScenes, scene);
@@ -111,11 +109,7 @@ fn same_bytes_for_any_thread_count() {
         if out.exists() {
             std::fs::remove_dir_all(&out).unwrap();
         }
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap()
-            .install(|| assert!(!ingest::run(&c, &out).unwrap().skipped));
+        testkit::on_threads(threads, || assert!(!ingest::run(&c, &out).unwrap().skipped));
         files
             .iter()
             .map(|f| std::fs::read(out.join(f)).unwrap())

@@ -4,7 +4,6 @@ use features::*;
 use image::{GrayImage, Luma};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use std::path::PathBuf;
 
 /// A textured test image: random discs and rectangles of random grey on noise.
 fn textured(w: u32, h: u32, seed: u64) -> GrayImage {
@@ -127,11 +126,7 @@ fn extraction_is_deterministic_and_thread_count_independent() {
     let imgs: Vec<GrayImage> = (0..4).map(|i| textured(320, 240, i)).collect();
     let cfg = FrontEndConfig::default();
     let run = |threads: usize| {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap();
-        pool.install(|| {
+        testkit::on_threads(threads, || {
             extract_batch(&imgs, &indicatif::ProgressBar::hidden(), |img| {
                 extract(img, &cfg)
             })
@@ -259,23 +254,12 @@ fn samples_include_both_endpoints() {
     assert!((pts[1][0] - 12.0).abs() < 1e-12);
 }
 
-fn sample_data() -> Option<PathBuf> {
-    let p = std::env::var_os("PL2MAP_SAMPLE_DATA")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data"));
-    p.is_dir().then_some(p)
-}
-
 #[test]
 fn real_7scenes_frame() {
-    let Some(data) = sample_data() else {
-        eprintln!(
-            "SKIPPED real_7scenes_frame: no sample data (set PL2MAP_SAMPLE_DATA or provide ../shared/data)"
-        );
+    let Some(stairs) = testkit::sample::sample_data("7scenes-stairs-mini/stairs") else {
         return;
     };
-    let img =
-        load_gray(&data.join("7scenes-stairs-mini/stairs/seq-01/frame-000000.color.jpg")).unwrap();
+    let img = load_gray(&stairs.join("seq-01/frame-000000.color.jpg")).unwrap();
     let f = extract(&img, &FrontEndConfig::query()).unwrap();
     eprintln!(
         "7-Scenes stairs frame: {} keypoints, {} segments",

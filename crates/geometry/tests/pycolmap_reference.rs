@@ -97,14 +97,13 @@ fn run_generator(python: &Path) -> Result<String, String> {
 
 #[test]
 fn matches_live_pycolmap() {
-    let Some(python) = std::env::var_os("PL2MAP_PYTHON") else {
-        eprintln!("skipping live pycolmap comparison: PL2MAP_PYTHON is not set");
+    let Some(python) = testkit::python::python(&[]) else {
         return;
     };
-    let text = match run_generator(Path::new(&python)) {
+    let text = match run_generator(&python) {
         Ok(text) => text,
         Err(e) => {
-            eprintln!("skipping live pycolmap comparison: {e}");
+            testkit::skip(format_args!("live pycolmap comparison: {e}"));
             return;
         }
     };

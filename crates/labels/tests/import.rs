@@ -1,14 +1,13 @@
 //! The import stage on the analytic scene: exact labels, endpoint order, pose report,
 //! name mapping, determinism and stage records.
 
-mod common;
-
-use common::{Scene, SceneOptions, folder_bytes};
 use geometry::{Vector2, Vector3};
 use labels::import::{self, ImportConfig};
 use labels::{LabelTables, NameMapping, PoseSource};
 use std::collections::HashMap;
 use tables::frames::Split;
+use testkit::files::folder_bytes;
+use testkit::scene::{Scene, SceneOptions};
 
 fn import(
     scene: &Scene,

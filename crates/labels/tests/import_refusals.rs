@@ -1,11 +1,9 @@
 //! Every inconsistency the import refuses, one test each, with the message it gives.
 
-mod common;
-
-use common::{Scene, SceneOptions};
 use labels::NameMapping;
 use labels::import::{self, ImportConfig, ImportError, ImportProblem};
 use tables::frames::{Frame, Split};
+use testkit::scene::{Scene, SceneOptions};
 
 fn scene() -> Scene {
     Scene::build(&SceneOptions::default())

@@ -2,12 +2,11 @@
 //! geometry, holes in the depth drop labels, bad depth is refused, output bytes do not
 //! depend on the thread count.
 
-mod common;
-
-use common::{Scene, SceneOptions, folder_bytes};
 use labels::import::{self, ImportConfig};
 use labels::refine::{self, PointSampling, RefineConfig, RefineError};
 use labels::{LabelTables, Spread};
+use testkit::files::folder_bytes;
+use testkit::scene::{Scene, SceneOptions};
 
 /// `--label-noise-cm 5`: 5 cm RMS 3D error, i.e. 5 / sqrt(3) cm per coordinate.
 fn noisy_scene() -> Scene {
@@ -156,7 +155,11 @@ fn observations_without_valid_depth_lose_their_label() {
     let (cx, cy) = (row.xy[0] as i64, row.xy[1] as i64);
     for y in cy - 3..=cy + 3 {
         for x in cx - 3..=cx + 3 {
-            if x >= 0 && y >= 0 && x < common::WIDTH as i64 && y < common::HEIGHT as i64 {
+            if x >= 0
+                && y >= 0
+                && x < testkit::scene::WIDTH as i64
+                && y < testkit::scene::HEIGHT as i64
+            {
                 depth.put_pixel(
                     x as u32,
                     y as u32,
@@ -252,7 +255,13 @@ fn refuses_labels_of_another_frames_table_and_tables_without_depth() {
         &scene.out("refined"),
     )
     .unwrap_err();
-    assert!(matches!(e, RefineError::OtherFrames { .. }), "{e:?}");
+    assert!(
+        matches!(
+            e,
+            RefineError::Table(tables::TableError::OtherFrames { .. })
+        ),
+        "{e:?}"
+    );
     assert!(e.to_string().contains("run the import again"), "{e}");
 
     for f in &mut scene.table.frames {
@@ -279,19 +288,15 @@ fn same_bytes_for_any_thread_count_and_reruns_are_skipped() {
     let scene = noisy_scene();
     import(&scene);
     let run_with = |threads: usize, out: &str| {
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
+        testkit::on_threads(threads, || {
+            refine::run(
+                &RefineConfig::default(),
+                &scene.frames_path,
+                &scene.out("labels"),
+                &scene.out(out),
+            )
             .unwrap()
-            .install(|| {
-                refine::run(
-                    &RefineConfig::default(),
-                    &scene.frames_path,
-                    &scene.out("labels"),
-                    &scene.out(out),
-                )
-                .unwrap()
-            })
+        })
     };
     let a = run_with(1, "one");
     let b = run_with(2, "two");

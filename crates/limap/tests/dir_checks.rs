@@ -11,22 +11,9 @@ fn fixture() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/limap-mini")
 }
 
-fn copy_dir(from: &Path, to: &Path) {
-    std::fs::create_dir_all(to).unwrap();
-    for entry in std::fs::read_dir(from).unwrap() {
-        let p = entry.unwrap().path();
-        let target = to.join(p.file_name().unwrap());
-        if p.is_dir() {
-            copy_dir(&p, &target);
-        } else {
-            std::fs::copy(&p, &target).unwrap();
-        }
-    }
-}
-
 fn copy() -> tempfile::TempDir {
     let dir = tempfile::tempdir().unwrap();
-    copy_dir(&fixture(), dir.path());
+    testkit::files::copy_dir(&fixture(), dir.path());
     dir
 }
 
@@ -131,7 +118,7 @@ fn a_malformed_file_is_named() {
 fn segments_location_is_explicit() {
     // Two candidates: refused, both named.
     let d = copy();
-    copy_dir(
+    testkit::files::copy_dir(
         &d.path().join("line_detections/lsd/segments"),
         &d.path().join("line_detections/deeplsd/segments"),
     );

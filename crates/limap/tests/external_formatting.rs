@@ -84,7 +84,7 @@ fn track_numbers_match_cpp_iostream() {
         .map(|s| s.success())
         .unwrap_or(false);
     if !built {
-        eprintln!("SKIP: no working C++ compiler ({cxx})");
+        testkit::skip(format_args!("no working C++ compiler ({cxx})"));
         return;
     }
     let values = values();
@@ -111,19 +111,11 @@ fn track_numbers_match_cpp_iostream() {
     assert_eq!(ours.trim_end(), cpp.trim_end());
 }
 
-fn python() -> Option<String> {
-    match std::env::var("PL2MAP_PYTHON") {
-        Ok(p) if !p.is_empty() => Some(p),
-        _ => {
-            eprintln!("SKIP: PL2MAP_PYTHON is not set");
-            None
-        }
-    }
-}
-
 #[test]
 fn segment_numbers_match_cpython_repr() {
-    let Some(py) = python() else { return };
+    let Some(py) = testkit::python::python(&[]) else {
+        return;
+    };
     let values = values();
     let script = "import sys, struct\n\
                   vals = [struct.unpack('<d', int(l).to_bytes(8, 'little'))[0] for l in sys.stdin]\n\
@@ -131,7 +123,7 @@ fn segment_numbers_match_cpython_repr() {
                   for i in range(0, len(vals) - len(vals) % 4, 4):\n\
                   \x20   print(f'{vals[i]} {vals[i+1]} {vals[i+2]} {vals[i+3]}')\n";
     let Some(expected) = run(Command::new(&py).args(["-c", script]), &bits_input(&values)) else {
-        eprintln!("SKIP: {py} did not run");
+        testkit::skip(format_args!("{} did not run", py.display()));
         return;
     };
     let segs = Segments::new(
@@ -145,13 +137,15 @@ fn segment_numbers_match_cpython_repr() {
 
 #[test]
 fn alltracks_numbers_match_cpython_fixed() {
-    let Some(py) = python() else { return };
+    let Some(py) = testkit::python::python(&[]) else {
+        return;
+    };
     let values = values();
     let script = "import sys, struct\n\
                   vals = [struct.unpack('<d', int(l).to_bytes(8, 'little'))[0] for l in sys.stdin]\n\
                   print(' '.join(f'{v:.10f}' for v in vals))\n";
     let Some(expected) = run(Command::new(&py).args(["-c", script]), &bits_input(&values)) else {
-        eprintln!("SKIP: {py} did not run");
+        testkit::skip(format_args!("{} did not run", py.display()));
         return;
     };
     let tracks: Vec<LineTrack> = values

@@ -2,7 +2,6 @@
 //! with LIMAP's exact layout (Python f-strings and `%.10f`). Expected values come from that
 //! script's JSON, computed in Python, not by this crate.
 
-use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use limap::{
@@ -194,10 +193,8 @@ fn write_limap_dir_reproduces_the_folder() {
         &dir.tracks,
     )
     .unwrap();
-    let mut files = BTreeMap::new();
-    collect(out.path(), out.path(), &mut files);
-    let mut want = BTreeMap::new();
-    collect(&fixture(), &fixture(), &mut want);
+    let files = testkit::files::folder_bytes(out.path());
+    let mut want = testkit::files::folder_bytes(&fixture());
     want.remove("metainfos.txt");
     assert_eq!(
         files.keys().collect::<Vec<_>>(),
@@ -208,16 +205,4 @@ fn write_limap_dir_reproduces_the_folder() {
     }
     let back = LimapDir::load(out.path(), &LimapDirOptions::default()).unwrap();
     assert_eq!(back.tracks, dir.tracks);
-}
-
-fn collect(root: &Path, dir: &Path, out: &mut BTreeMap<String, Vec<u8>>) {
-    for entry in std::fs::read_dir(dir).unwrap() {
-        let p = entry.unwrap().path();
-        if p.is_dir() {
-            collect(root, &p, out);
-        } else {
-            let rel = p.strip_prefix(root).unwrap().to_string_lossy().into_owned();
-            out.insert(rel, std::fs::read(&p).unwrap());
-        }
-    }
 }

@@ -75,11 +75,6 @@ impl<'d, B: Backend> Initializer<'d, B> {
             .with_epsilon(LAYER_NORM_EPS)
             .init(self.device)
     }
-
-    #[allow(dead_code)]
-    pub fn device(&self) -> &B::Device {
-        self.device
-    }
 }
 
 /// A float tensor from host values (shape must match `values.len()`).

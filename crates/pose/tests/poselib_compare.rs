@@ -47,22 +47,6 @@ fn v3(v: &[Vector3<f64>]) -> Value {
     json!(v.iter().map(|p| [p.x, p.y, p.z]).collect::<Vec<_>>())
 }
 
-fn python() -> Option<String> {
-    let Some(py) = std::env::var_os("PL2MAP_PYTHON") else {
-        eprintln!("skipping: PL2MAP_PYTHON is not set (scripts/setup-python.sh prints one)");
-        return None;
-    };
-    let ok = Command::new(&py)
-        .args(["-c", "import poselib, numpy"])
-        .status()
-        .is_ok_and(|s| s.success());
-    if !ok {
-        eprintln!("skipping: {py:?} cannot import poselib and numpy");
-        return None;
-    }
-    Some(py.to_string_lossy().into_owned())
-}
-
 fn same(a: &Pose, b: &Pose) -> bool {
     let scale = a.translation.norm().max(1.0);
     a.rotation.angle_to(&b.rotation) < 1e-6 && (a.translation - b.translation).norm() < 1e-6 * scale
@@ -70,7 +54,9 @@ fn same(a: &Pose, b: &Pose) -> bool {
 
 #[test]
 fn solution_sets_match_poselib() {
-    let Some(py) = python() else { return };
+    let Some(py) = testkit::python::python(&["poselib", "numpy"]) else {
+        return;
+    };
     let mut rng = ChaCha8Rng::seed_from_u64(42);
     let mut cases = Vec::new();
     for i in 0..800 {
@@ -151,13 +137,7 @@ fn solution_sets_match_poselib() {
         .collect();
     std::fs::write(&input, serde_json::to_vec(&doc).unwrap()).unwrap();
     std::fs::write(&script, SCRIPT).unwrap();
-    let status = Command::new(&py)
-        .arg(&script)
-        .arg(&input)
-        .arg(&output)
-        .status()
-        .unwrap();
-    assert!(status.success());
+    testkit::python::run(Command::new(&py).arg(&script).arg(&input).arg(&output));
     let theirs: Vec<Vec<Vec<f64>>> =
         serde_json::from_slice(&std::fs::read(&output).unwrap()).unwrap();
     assert_eq!(theirs.len(), cases.len());
@@ -229,7 +209,9 @@ fn ransac_agrees_with_poselib() {
     use geometry::metrics::pose_error;
     use pose::synthetic::{SyntheticConfig, generate_seeded};
     use pose::{RansacOptions, estimate_pose};
-    let Some(py) = python() else { return };
+    let Some(py) = testkit::python::python(&["poselib", "numpy"]) else {
+        return;
+    };
     let mut problems = Vec::new();
     for seed in 0..12 {
         let cfg = if seed % 2 == 0 {
@@ -261,13 +243,7 @@ fn ransac_agrees_with_poselib() {
     );
     std::fs::write(&input, serde_json::to_vec(&doc).unwrap()).unwrap();
     std::fs::write(&script, RANSAC_SCRIPT).unwrap();
-    let status = Command::new(&py)
-        .arg(&script)
-        .arg(&input)
-        .arg(&output)
-        .status()
-        .unwrap();
-    assert!(status.success());
+    testkit::python::run(Command::new(&py).arg(&script).arg(&input).arg(&output));
     let theirs: Vec<Vec<f64>> = serde_json::from_slice(&std::fs::read(&output).unwrap()).unwrap();
     for ((pb, seed), v) in problems.iter().zip(&theirs) {
         let opt = RansacOptions {

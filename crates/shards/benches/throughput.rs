@@ -6,12 +6,10 @@
 //! `--keep DIR` leaves the single-shard run's file in DIR (e.g. for the inspect
 //! example or Foxglove).
 
-#[path = "../tests/common/mod.rs"]
-mod common;
-
 use shards::{FrameRecord, ShardConfig, ShardJob, ShardReader, plan_shards, write_shards};
 use std::collections::BTreeMap;
 use std::time::Instant;
+use testkit::shard_frames::{frame_with_image, image_bytes};
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -25,8 +23,8 @@ fn main() {
     let t = Instant::now();
     let frames: Vec<FrameRecord> = (0..n)
         .map(|id| {
-            let png = common::image_bytes(640, 480, id, shards::ImageFormat::Png);
-            common::frame_with_image(id, 4096, 500, png, shards::ImageFormat::Png, 640, 480)
+            let png = image_bytes(640, 480, id, shards::ImageFormat::Png);
+            frame_with_image(id, 4096, 500, png, shards::ImageFormat::Png, 640, 480)
         })
         .collect();
     let image_bytes: usize = frames.iter().map(|f| f.image_bytes.len()).sum();

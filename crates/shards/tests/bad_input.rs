@@ -1,14 +1,12 @@
 //! Bad shards give typed errors naming the file and the place; bad frames given to
 //! the writer give typed errors naming the frame and leave no file behind.
 
-mod common;
-
-use common::{assert_bitwise_eq, frame, small_chunks};
 use shards::{
     FrameRecord, ShardError, ShardJob, ShardReader, plan_shards, write_shard, write_shards,
 };
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
+use testkit::shard_frames::{assert_bitwise_eq, frame, small_chunks};
 
 fn good_shard(dir: &Path) -> (PathBuf, Vec<FrameRecord>) {
     let frames: Vec<FrameRecord> = (0..12).map(|i| frame(i, 120, 20, 32, 24)).collect();

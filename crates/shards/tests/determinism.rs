@@ -1,12 +1,11 @@
 //! Same frames + config => the same bytes: across runs, for 1 and 2 rayon threads,
 //! and for a run split into work units whose manifests are merged.
 
-mod common;
-
-use common::{frame, small_chunks};
 use shards::{FrameRecord, Manifest, ShardJob, plan_shards, write_shard, write_shards};
 use std::collections::BTreeMap;
 use std::path::Path;
+use testkit::files::folder_bytes;
+use testkit::shard_frames::{frame, small_chunks};
 
 fn input() -> Vec<FrameRecord> {
     (0..37).map(|i| frame(5 + 2 * i, 200, 30, 40, 30)).collect()
@@ -44,30 +43,13 @@ fn run(dir: &Path, threads: usize, units: &[(usize, usize)]) -> Manifest {
         inputs: inputs(),
         digests: None,
     };
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()
-        .unwrap();
-    let manifests: Vec<Manifest> = pool.install(|| {
+    let manifests: Vec<Manifest> = testkit::on_threads(threads, || {
         units
             .iter()
             .map(|&(a, b)| write_shards(&job, a..b, &load(&all)).unwrap().manifest)
             .collect()
     });
     Manifest::merge(&manifests).unwrap()
-}
-
-fn files(dir: &Path) -> BTreeMap<String, Vec<u8>> {
-    std::fs::read_dir(dir)
-        .unwrap()
-        .map(|e| {
-            let e = e.unwrap();
-            (
-                e.file_name().to_string_lossy().into_owned(),
-                std::fs::read(e.path()).unwrap(),
-            )
-        })
-        .collect()
 }
 
 #[test]
@@ -104,10 +86,10 @@ fn thread_count_and_work_units_do_not_change_anything() {
     assert_eq!(m1, m2);
     assert_eq!(m1, mu);
     assert_eq!(m1.to_json(), mu.to_json());
-    let f1 = files(one.path());
+    let f1 = folder_bytes(one.path());
     assert_eq!(f1.len(), 4, "{:?}", f1.keys());
-    assert_eq!(f1, files(two.path()));
-    assert_eq!(f1, files(units.path()));
+    assert_eq!(f1, folder_bytes(two.path()));
+    assert_eq!(f1, folder_bytes(units.path()));
     // The manifest's hashes are the files' hashes.
     for s in &m1.shards {
         assert_eq!(stage::sha256_bytes(&f1[&s.file]), s.sha256);

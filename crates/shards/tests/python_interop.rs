@@ -4,40 +4,16 @@
 //! Skipped with a printed reason when PL2MAP_PYTHON is unset or its imports fail
 //! (scripts/setup-python.sh prints a suitable python).
 
-mod common;
-
-use common::{frame, small_chunks};
 use shards::{FrameRecord, ShardJob, ShardReader, plan_shards, write_shards};
 use std::collections::BTreeMap;
 use std::process::Command;
-
-fn python() -> Option<String> {
-    let Ok(py) = std::env::var("PL2MAP_PYTHON") else {
-        eprintln!("SKIP python_interop: PL2MAP_PYTHON is not set (run scripts/setup-python.sh)");
-        return None;
-    };
-    let probe = Command::new(&py)
-        .args(["-c", "import mcap.reader, mcap_protobuf.decoder"])
-        .output();
-    match probe {
-        Ok(o) if o.status.success() => Some(py),
-        Ok(o) => {
-            eprintln!(
-                "SKIP python_interop: {py} cannot import mcap / mcap_protobuf: {}",
-                String::from_utf8_lossy(&o.stderr).trim()
-            );
-            None
-        }
-        Err(e) => {
-            eprintln!("SKIP python_interop: cannot run {py}: {e}");
-            None
-        }
-    }
-}
+use testkit::shard_frames::{frame, small_chunks};
 
 #[test]
 fn python_decodes_labels_from_the_embedded_schema() {
-    let Some(py) = python() else { return };
+    let Some(py) = testkit::python::python(&["mcap.reader", "mcap_protobuf.decoder"]) else {
+        return;
+    };
     let dir = tempfile::tempdir().unwrap();
     let all: Vec<FrameRecord> = (0..23).map(|i| frame(100 + i, 250, 35, 40, 30)).collect();
     let ids: Vec<u64> = all.iter().map(|f| f.frame_id).collect();
@@ -57,13 +33,8 @@ fn python_decodes_labels_from_the_embedded_schema() {
     let paths = manifest.shard_paths(dir.path());
 
     let script = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/decode_shard.py");
-    let out = Command::new(&py).arg(script).args(&paths).output().unwrap();
-    assert!(
-        out.status.success(),
-        "decode_shard.py failed:\n{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let py_json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let out = testkit::python::run(Command::new(&py).arg(script).args(&paths));
+    let py_json: serde_json::Value = serde_json::from_slice(&out).unwrap();
 
     // The same numbers from the Rust reader, summing in the same order.
     let (mut frames, mut kp, mut vp, mut seg, mut vl) = (0u64, 0u64, 0u64, 0u64, 0u64);

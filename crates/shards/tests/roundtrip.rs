@@ -1,14 +1,12 @@
 //! Frames written to shards come back from the reader bit for bit: in order, after a
 //! seek, from a subset of shards, and one by one.
 
-mod common;
-
-use common::{assert_bitwise_eq, frame, small_chunks};
 use shards::{
     FrameRecord, FrameSource, ShardError, ShardFile, ShardJob, ShardReader, plan_shards,
     write_shard, write_shards,
 };
 use std::collections::BTreeMap;
+use testkit::shard_frames::{assert_bitwise_eq, frame, small_chunks};
 
 fn frames(ids: impl IntoIterator<Item = u64>) -> Vec<FrameRecord> {
     ids.into_iter()

@@ -2,7 +2,7 @@
 
 use geometry::{Camera, CameraModel, Pose};
 use nalgebra::{Matrix4, Vector2, Vector3};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::sync::OnceLock;
 use synth::layout::{format_pose_txt, seven_scenes_names};
 use synth::render::{NO_SURFACE, SAMPLES};
@@ -11,6 +11,7 @@ use synth::trajectory::{CLEARANCE_M, HEIGHT_RANGE_M, plan_frames, plan_sequences
 use synth::{
     EdgeKind, Layout, Scene, Split, SynthConfig, SynthDataset, SynthError, WriteOptions, generate,
 };
+use testkit::files::files;
 
 const SEED: u64 = 7;
 
@@ -330,23 +331,6 @@ fn trajectories_keep_clearance_and_move_smoothly() {
     }
 }
 
-fn files(root: &Path) -> Vec<PathBuf> {
-    let mut out = Vec::new();
-    let mut stack = vec![root.to_path_buf()];
-    while let Some(d) = stack.pop() {
-        for e in std::fs::read_dir(&d).unwrap() {
-            let p = e.unwrap().path();
-            if p.is_dir() {
-                stack.push(p);
-            } else {
-                out.push(p.strip_prefix(root).unwrap().to_path_buf());
-            }
-        }
-    }
-    out.sort();
-    out
-}
-
 fn quiet(out: &Path) -> WriteOptions {
     WriteOptions {
         progress: false,
@@ -355,11 +339,7 @@ fn quiet(out: &Path) -> WriteOptions {
 }
 
 fn generate_in_pool(threads: usize, out: &Path, layout: Layout) -> synth::SynthOutput {
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()
-        .unwrap();
-    pool.install(|| {
+    testkit::on_threads(threads, || {
         generate(
             &SynthConfig {
                 seed: SEED,
@@ -443,23 +423,11 @@ fn pose_txt_round_trip() {
     }
 }
 
-fn sample_data() -> Option<PathBuf> {
-    if let Ok(p) = std::env::var("PL2MAP_SAMPLE_DATA") {
-        return Some(PathBuf::from(p));
-    }
-    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data");
-    p.exists().then_some(p)
-}
-
 #[test]
 fn pose_txt_format_matches_real_7scenes_files() {
-    let Some(root) = sample_data() else {
-        eprintln!(
-            "SKIP pose_txt_format_matches_real_7scenes_files: no sample data (set PL2MAP_SAMPLE_DATA)"
-        );
+    let Some(dir) = testkit::sample::sample_data("7scenes-stairs-mini/stairs") else {
         return;
     };
-    let dir = root.join("7scenes-stairs-mini/stairs");
     let mut n = 0;
     for seq in ["seq-01", "seq-02", "seq-03", "seq-04"] {
         let Ok(entries) = std::fs::read_dir(dir.join(seq)) else {
@@ -481,7 +449,7 @@ fn pose_txt_format_matches_real_7scenes_files() {
         }
     }
     if n == 0 {
-        eprintln!("SKIP pose_txt_format_matches_real_7scenes_files: no pose files under {dir:?}");
+        testkit::skip(format_args!("no pose files under {dir:?}"));
     }
     // The split files use CRLF line ends like ours.
     if let Ok(s) = std::fs::read_to_string(dir.join("TrainSplit.txt")) {
@@ -735,16 +703,8 @@ fn blur(src: &[f32], w: usize, h: usize, sigma: f32) -> Vec<f32> {
 fn scene_is_deterministic_per_seed() {
     // Built on one thread and on the default pool: same quads, edges and textures (the
     // textures are compared through a render, which reads every visible texel).
-    let a = rayon::ThreadPoolBuilder::new()
-        .num_threads(2)
-        .build()
-        .unwrap()
-        .install(|| Scene::generate(3));
-    let b = rayon::ThreadPoolBuilder::new()
-        .num_threads(1)
-        .build()
-        .unwrap()
-        .install(|| Scene::generate(3));
+    let a = testkit::on_threads(2, || Scene::generate(3));
+    let b = testkit::on_threads(1, || Scene::generate(3));
     assert_eq!(a.quads(), b.quads());
     assert_eq!(a.edges(), b.edges());
     let ds = tiny();

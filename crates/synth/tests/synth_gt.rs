@@ -8,6 +8,7 @@ use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 use synth::gt::{EXACT_FILE, GT_DIR};
 use synth::{Split, SynthConfig, SynthOutput, generate};
+use testkit::files::files;
 
 const SEED: u64 = 3;
 
@@ -17,11 +18,7 @@ struct Generated {
 }
 
 fn generate_tiny(dir: &Path, threads: usize, noise_cm: f64) -> SynthOutput {
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()
-        .unwrap();
-    pool.install(|| {
+    testkit::on_threads(threads, || {
         generate(
             &SynthConfig {
                 seed: SEED,
@@ -201,24 +198,6 @@ fn line_tracks_lie_on_scene_edges_and_project_onto_their_supports() {
     assert!(checked >= 4 * dir.tracks.len());
 }
 
-/// Every file under `root`, relative, sorted.
-fn files(root: &Path) -> Vec<PathBuf> {
-    fn walk(root: &Path, dir: &Path, out: &mut Vec<PathBuf>) {
-        for e in std::fs::read_dir(dir).unwrap() {
-            let p = e.unwrap().path();
-            if p.is_dir() {
-                walk(root, &p, out);
-            } else {
-                out.push(p.strip_prefix(root).unwrap().to_path_buf());
-            }
-        }
-    }
-    let mut out = Vec::new();
-    walk(root, root, &mut out);
-    out.sort();
-    out
-}
-
 #[test]
 fn same_seed_gives_identical_bytes_for_any_thread_count() {
     let g = exact();
@@ -303,8 +282,7 @@ fn label_noise_has_the_requested_rms_and_exact_json_keeps_the_truth() {
 
 #[test]
 fn pycolmap_reads_the_model_with_the_same_counts() {
-    let Ok(python) = std::env::var("PL2MAP_PYTHON") else {
-        eprintln!("skipped: PL2MAP_PYTHON is not set");
+    let Some(python) = testkit::python::python(&["pycolmap"]) else {
         return;
     };
     let g = exact();
@@ -312,25 +290,13 @@ fn pycolmap_reads_the_model_with_the_same_counts() {
     let script = "import sys, pycolmap\n\
                   r = pycolmap.Reconstruction(sys.argv[1])\n\
                   print(r.num_images(), r.num_points3D(), r.compute_num_observations())\n";
-    let out = match std::process::Command::new(&python)
-        .arg("-c")
-        .arg(script)
-        .arg(model_dir(&g.out))
-        .output()
-    {
-        Ok(o) => o,
-        Err(e) => {
-            eprintln!("skipped: cannot run {python}: {e}");
-            return;
-        }
-    };
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    if !out.status.success() && stderr.contains("No module named 'pycolmap'") {
-        eprintln!("skipped: pycolmap does not import in {python}");
-        return;
-    }
-    assert!(out.status.success(), "pycolmap failed: {stderr}");
-    let counts: Vec<usize> = String::from_utf8_lossy(&out.stdout)
+    let out = testkit::python::run(
+        std::process::Command::new(&python)
+            .arg("-c")
+            .arg(script)
+            .arg(model_dir(&g.out)),
+    );
+    let counts: Vec<usize> = String::from_utf8_lossy(&out)
         .split_whitespace()
         .map(|t| t.parse().unwrap())
         .collect();

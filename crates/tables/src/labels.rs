@@ -189,6 +189,23 @@ impl LabelTables {
         sorted.into_iter().collect()
     }
 
+    /// Refuses tables made from another frames table than `frames_path` (whose sha256
+    /// is `frames_sha256`): their frame ids would name other images.
+    pub fn require_frames(
+        &self,
+        frames_path: &Path,
+        frames_sha256: &str,
+    ) -> Result<(), TableError> {
+        if self.frames_sha256 == frames_sha256 {
+            return Ok(());
+        }
+        Err(TableError::OtherFrames {
+            frames: frames_path.to_path_buf(),
+            labels: self.frames_sha256.clone(),
+            current: frames_sha256.to_string(),
+        })
+    }
+
     /// Sorts every table by its key (frame id, then index).
     pub fn sort(&mut self) {
         self.points.sort_by_key(|r| (r.frame_id, r.kp_index));

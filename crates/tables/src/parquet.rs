@@ -34,6 +34,16 @@ pub enum TableError {
         column: String,
         message: String,
     },
+    #[error(
+        "the label tables were made from frames table {labels} but {} is {current}: run the \
+         import again",
+        frames.display()
+    )]
+    OtherFrames {
+        frames: PathBuf,
+        labels: String,
+        current: String,
+    },
     #[error(transparent)]
     Stage(#[from] stage::StageError),
 }

@@ -1,7 +1,6 @@
 //! A small hand-built model that uses every feature of the formats: two camera models,
 //! a rig with a posed second camera and an IMU without pose, an image without 2D points,
 //! 2D points with and without 3D points.
-#![allow(dead_code)]
 
 use colmap::{
     CameraRecord, DataId, Format, Frame, INVALID_POINT3D_ID, Image, Point2D, Point3D,

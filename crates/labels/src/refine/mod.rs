@@ -202,16 +202,6 @@ pub enum RefineError {
     },
     #[error("refine configuration: {0}")]
     Config(String),
-    #[error(
-        "the label tables were made from frames table {labels} but {} is {current}: run the \
-         import again",
-        frames.display()
-    )]
-    OtherFrames {
-        frames: PathBuf,
-        labels: String,
-        current: String,
-    },
     #[error("label tables: frame {frame_id} is not a training frame of the frames table")]
     UnknownFrame { frame_id: u32 },
     #[error("no training frame has a depth map (frames table depth source: {depth_source})")]
@@ -373,13 +363,7 @@ pub fn run(
     let frames_sha256 = stage::sha256_file(frames_path)?;
     let frames = FramesTable::read_parquet(frames_path)?;
     let labels = LabelTables::read(labels_dir)?;
-    if labels.frames_sha256 != frames_sha256 {
-        return Err(RefineError::OtherFrames {
-            frames: frames_path.to_path_buf(),
-            labels: labels.frames_sha256.clone(),
-            current: frames_sha256,
-        });
-    }
+    labels.require_frames(frames_path, &frames_sha256)?;
     let train: HashMap<u32, &tables::frames::Frame> = frames
         .frames
         .iter()

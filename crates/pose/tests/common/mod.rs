@@ -1,8 +1,5 @@
 //! Random noise-free minimal problems shared by the solver tests.
 
-// Each test crate uses a part of this module.
-#![allow(dead_code)]
-
 use geometry::{Pose, UnitQuaternion, Vector2, Vector3};
 use pose::solvers::{Line3D, image_line_normal};
 use rand::{Rng, SeedableRng};
@@ -76,14 +73,6 @@ impl Scene {
                 return l;
             }
         }
-    }
-
-    pub fn found(&self, sols: &[Pose], tol: f64) -> bool {
-        let scale = self.gt.translation.norm().max(1.0);
-        sols.iter().any(|s| {
-            s.rotation.angle_to(&self.gt.rotation) < tol
-                && (s.translation - self.gt.translation).norm() < tol * scale
-        })
     }
 }
 

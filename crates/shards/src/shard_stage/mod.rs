@@ -127,16 +127,6 @@ pub enum ShardStageError {
         source: std::io::Error,
     },
     #[error(
-        "the label tables were made from frames table {labels} but {} is {current}: run the \
-         import again",
-        frames.display()
-    )]
-    OtherFrames {
-        frames: PathBuf,
-        labels: String,
-        current: String,
-    },
-    #[error(
         "the label tables do not cover the training frames: {} training frame(s) without labels \
          (first {:?}), {} labelled frame(s) that are not training frames (first {:?})",
         missing.len(), missing.first(), extra.len(), extra.first()
@@ -272,13 +262,7 @@ fn run_unit(
     let frames_sha256 = stage::sha256_file(frames_path)?;
     let frames = FramesTable::read_parquet(frames_path)?;
     let labels = LabelTables::read(labels_dir)?;
-    if labels.frames_sha256 != frames_sha256 {
-        return Err(ShardStageError::OtherFrames {
-            frames: frames_path.to_path_buf(),
-            labels: labels.frames_sha256.clone(),
-            current: frames_sha256,
-        });
-    }
+    labels.require_frames(frames_path, &frames_sha256)?;
     let train_ids: BTreeSet<u32> = frames
         .frames
         .iter()

@@ -1,9 +1,8 @@
-//! An analytic scene for the label stages' tests: a box-shaped room seen by pinhole
-//! cameras from inside, points and line segments painted on its walls and floor, exact
-//! depth maps rendered by ray casting, and the inputs the stages read written from it
-//! with the project's own writers (COLMAP model, LIMAP folder, frames table, images,
+//! An analytic scene for the label and shard stages' tests: a box-shaped room seen by
+//! pinhole cameras from inside, points and line segments painted on its walls and floor,
+//! exact depth maps rendered by ray casting, and the inputs the stages read written from
+//! it with the project's own writers (COLMAP model, LIMAP folder, frames table, images,
 //! 16-bit depth PNGs). Every label is known exactly, so every check is exact.
-#![allow(dead_code)]
 
 use colmap::{CameraRecord, Point2D, Point3D, Reconstruction, TrackElement};
 use geometry::{Camera, CameraModel, Pose, UnitQuaternion, Vector2, Vector3};
@@ -178,27 +177,28 @@ pub fn frame_name(split: Split, i: usize) -> String {
     }
 }
 
+/// A smooth colour image of the scene's size (its pixels are never read, only its bytes
+/// and size).
 fn write_png_rgb(path: &Path, seed: u32) {
-    std::fs::create_dir_all(path.parent().unwrap()).unwrap();
     let img = image::RgbImage::from_fn(WIDTH, HEIGHT, |x, y| {
         image::Rgb([(x / 8) as u8, (y / 8) as u8, (seed * 40) as u8])
     });
-    img.save(path).unwrap();
+    crate::images::save(path, &img);
 }
 
+/// The exact depth map (millimetres, 16-bit PNG) of the camera at `pose`, with
+/// `noise_mm` Gaussian noise per pixel.
 pub fn write_depth(path: &Path, pose: &Pose, cam: &Camera, noise_mm: f64, seed: u64) {
-    std::fs::create_dir_all(path.parent().unwrap()).unwrap();
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let img = image::ImageBuffer::<image::Luma<u16>, Vec<u16>>::from_fn(WIDTH, HEIGHT, |x, y| {
+    crate::images::write_depth(path, WIDTH, HEIGHT, |x, y| {
         let d = depth_at(pose, cam, Vector2::new(x as f64 + 0.5, y as f64 + 0.5));
         let noise = if noise_mm > 0.0 {
             noise_mm * gauss(&mut rng)
         } else {
             0.0
         };
-        image::Luma([(d * 1000.0 + noise).round() as u16])
+        (d * 1000.0 + noise).round() as u16
     });
-    img.save(path).unwrap();
 }
 
 impl Scene {
@@ -476,19 +476,4 @@ impl Scene {
             .filter(|f| f.split == Split::Train)
             .collect()
     }
-}
-
-/// Bytes of every file of a folder, by name (for byte-identity checks).
-pub fn folder_bytes(dir: &Path) -> BTreeMap<String, Vec<u8>> {
-    let mut out = BTreeMap::new();
-    for e in std::fs::read_dir(dir).unwrap() {
-        let e = e.unwrap();
-        if e.path().is_file() {
-            out.insert(
-                e.file_name().to_string_lossy().into_owned(),
-                std::fs::read(e.path()).unwrap(),
-            );
-        }
-    }
-    out
 }

@@ -1,35 +1,10 @@
-//! Fixtures for the ingest tests: small datasets written in the 7-Scenes and Cambridge
-//! layouts, and the location of the shared real sample data.
-#![allow(dead_code)]
+//! Small datasets written in the 7-Scenes and Cambridge Landmarks layouts (for the
+//! datasets crate's ingest tests), with the pose text formats those datasets use.
 
+use crate::images::{write_depth, write_rgb};
 use geometry::{Matrix4, Pose, UnitQuaternion, Vector3};
-use image::{ImageBuffer, Luma, Rgb, RgbImage};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
-
-/// `PL2MAP_SAMPLE_DATA`, else `<workspace>/../shared/data`; None (the caller skips) when
-/// neither exists.
-pub fn sample_data() -> Option<PathBuf> {
-    let dir = match std::env::var_os("PL2MAP_SAMPLE_DATA") {
-        Some(d) => PathBuf::from(d),
-        None => Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data"),
-    };
-    dir.is_dir().then_some(dir)
-}
-
-pub fn write_rgb_png(path: &Path, w: u32, h: u32, seed: u32) {
-    std::fs::create_dir_all(path.parent().unwrap()).unwrap();
-    let img: RgbImage = ImageBuffer::from_fn(w, h, |x, y| {
-        Rgb([(x * 7 + seed) as u8, (y * 5 + seed) as u8, (x ^ y) as u8])
-    });
-    img.save(path).unwrap();
-}
-
-pub fn write_depth_png(path: &Path, w: u32, h: u32, f: impl Fn(u32, u32) -> u16) {
-    std::fs::create_dir_all(path.parent().unwrap()).unwrap();
-    let img: ImageBuffer<Luma<u16>, Vec<u16>> = ImageBuffer::from_fn(w, h, |x, y| Luma([f(x, y)]));
-    img.save(path).unwrap();
-}
 
 /// A 4x4 matrix as 7-Scenes writes pose.txt: 7 significant digits, tab separated, CRLF.
 pub fn pose_txt(m: &Matrix4<f64>) -> String {
@@ -68,10 +43,10 @@ pub fn seven_scenes(root: &Path, w: u32, h: u32) -> PathBuf {
     for (k, (seq, i, ext)) in frames.iter().enumerate() {
         let stem = scene.join(seq).join(format!("frame-{i:06}"));
         let colour = PathBuf::from(format!("{}.color.{ext}", stem.display()));
-        write_rgb_png_or_jpg(&colour, w, h, k as u32);
+        write_rgb(&colour, w, h, k as u32);
         let c2w = fixture_pose(k).inverse().to_matrix();
         std::fs::write(format!("{}.pose.txt", stem.display()), pose_txt(&c2w)).unwrap();
-        write_depth_png(
+        write_depth(
             Path::new(&format!("{}.depth.png", stem.display())),
             640,
             480,
@@ -85,11 +60,6 @@ pub fn seven_scenes(root: &Path, w: u32, h: u32) -> PathBuf {
         );
     }
     scene
-}
-
-fn write_rgb_png_or_jpg(path: &Path, w: u32, h: u32, seed: u32) {
-    // image picks the encoder from the extension.
-    write_rgb_png(path, w, h, seed);
 }
 
 pub const CAMBRIDGE_HEADER: &str =
@@ -129,7 +99,7 @@ pub fn cambridge(root: &Path) -> PathBuf {
     let mut test = CAMBRIDGE_HEADER.to_string();
     let mut nvm = format!("NVM_V3\n\n{}\n", frames.len() + 1);
     for (k, (stem, w, h, f)) in frames.iter().enumerate() {
-        write_rgb_png(&scene.join(format!("{stem}.png")), *w, *h, k as u32);
+        write_rgb(&scene.join(format!("{stem}.png")), *w, *h, k as u32);
         let pose = fixture_pose(k);
         let row = cambridge_row(&format!("{stem}.png"), &pose);
         if k < 2 {

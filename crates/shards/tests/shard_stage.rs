@@ -1,15 +1,14 @@
 //! The shard stage: shards hold the label tables exactly, test frames go into their own
 //! shards, work units add up to a single run, bad inputs are refused.
 
-mod common;
-
-use common::{Scene, SceneOptions, folder_bytes};
 use labels::LabelTables;
 use labels::import::{self, ImportConfig};
 use shards::shard_stage::{self, ShardStageConfig, ShardStageError};
 use shards::{Manifest, ShardReader};
 use std::collections::HashMap;
 use tables::frames::Split;
+use testkit::files::folder_bytes;
+use testkit::scene::{Scene, SceneOptions};
 
 fn scene_with_labels() -> Scene {
     let scene = Scene::build(&SceneOptions {
@@ -29,9 +28,10 @@ fn scene_with_labels() -> Scene {
 }
 
 fn config(frames_per_shard: usize) -> ShardStageConfig {
-    let mut c = ShardStageConfig::default();
-    c.frames_per_shard = frames_per_shard;
-    c
+    ShardStageConfig {
+        frames_per_shard,
+        ..Default::default()
+    }
 }
 
 /// The whole shard stage over the scene's imported labels into `out`.
@@ -92,7 +92,7 @@ fn shards_hold_the_label_tables_and_the_test_frames() {
         assert_eq!(rec.image_format, shards::ImageFormat::Png);
         match f.split {
             Split::Train => {
-                assert_eq!(rec.split, shards::Split::Train);
+                assert_eq!(rec.split, Split::Train);
                 let p = poses[&f.id];
                 assert_eq!(rec.camera, p.camera);
                 assert_eq!(rec.pose.qvec(), p.pose.qvec());
@@ -121,7 +121,7 @@ fn shards_hold_the_label_tables_and_the_test_frames() {
                 assert!(rec.endpoints_aligned);
             }
             Split::Test => {
-                assert_eq!(rec.split, shards::Split::Test);
+                assert_eq!(rec.split, Split::Test);
                 assert_eq!(rec.camera, f.camera);
                 assert_eq!(rec.pose.qvec(), f.pose.qvec());
                 assert!(rec.keypoints.is_empty() && rec.segments.is_empty());
@@ -248,20 +248,16 @@ fn only_shards_whose_frames_changed_are_rewritten() {
 fn same_bytes_for_any_thread_count() {
     let scene = scene_with_labels();
     let run_with = |threads: usize, out: &str| {
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
+        testkit::on_threads(threads, || {
+            shard_stage::run(
+                &config(2),
+                &scene.frames_path,
+                &scene.out("labels"),
+                &scene.out(out),
+                None,
+            )
             .unwrap()
-            .install(|| {
-                shard_stage::run(
-                    &config(2),
-                    &scene.frames_path,
-                    &scene.out("labels"),
-                    &scene.out(out),
-                    None,
-                )
-                .unwrap()
-            })
+        })
     };
     run_with(1, "one");
     run_with(2, "two");
@@ -315,7 +311,13 @@ fn refuses_labels_of_another_frames_table() {
         None,
     )
     .unwrap_err();
-    assert!(matches!(e, ShardStageError::OtherFrames { .. }), "{e:?}");
+    assert!(
+        matches!(
+            e,
+            ShardStageError::Table(tables::TableError::OtherFrames { .. })
+        ),
+        "{e:?}"
+    );
 }
 
 #[test]

@@ -1,7 +1,7 @@
-//! Synthetic frames for the shard tests: random but seeded labels, a real PNG or
-//! JPEG file per frame, cameras of several COLMAP models, and values that stress a
-//! bitwise round trip (-0.0, subnormals, NaN payloads in invalid labels).
-#![allow(dead_code)]
+//! Synthetic frames for the shards crate's tests and benchmark: random but seeded
+//! labels, a real PNG or JPEG file per frame, cameras of several COLMAP models, and
+//! values that stress a bitwise round trip (-0.0, subnormals, NaN payloads in invalid
+//! labels).
 
 use geometry::{Camera, CameraModel, Pose};
 use nalgebra::{Quaternion, UnitQuaternion, Vector3};
@@ -9,24 +9,14 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use shards::{FrameRecord, ImageFormat, LabelSource, Split};
 
-/// An encoded image of `w` x `h` pixels: a gradient plus seeded noise.
+/// An encoded image of `w` x `h` pixels: a gradient plus seeded noise
+/// ([`crate::images::noisy_rgb_bytes`]).
 pub fn image_bytes(w: u32, h: u32, seed: u64, format: ImageFormat) -> Vec<u8> {
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let img = image::RgbImage::from_fn(w, h, |x, y| {
-        let n: u8 = rng.random_range(0..32);
-        image::Rgb([
-            (x % 256) as u8 ^ n,
-            (y % 256) as u8,
-            ((x + y) % 256) as u8 | n,
-        ])
-    });
-    let mut out = std::io::Cursor::new(Vec::new());
     let fmt = match format {
         ImageFormat::Png => image::ImageFormat::Png,
         ImageFormat::Jpeg => image::ImageFormat::Jpeg,
     };
-    img.write_to(&mut out, fmt).expect("encode test image");
-    out.into_inner()
+    crate::images::noisy_rgb_bytes(w, h, seed, fmt)
 }
 
 fn camera(frame_id: u64, w: u64, h: u64) -> Camera {
