@@ -2,6 +2,7 @@
 //! `commands/<name>.rs`, parses its arguments and calls one library function.
 
 mod commands;
+mod out;
 
 use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 
@@ -15,6 +16,10 @@ struct Cli {
     /// Hide progress bars and informational logs.
     #[arg(long, global = true)]
     quiet: bool,
+    /// Wait for a work or stage folder another pl2map process is writing, instead of
+    /// refusing it.
+    #[arg(long, global = true)]
+    wait: bool,
     #[command(subcommand)]
     command: Command,
 }
@@ -67,6 +72,7 @@ fn main() -> std::process::ExitCode {
         .map(|(_, m)| m.clone())
         .unwrap_or_default();
     commands::init_logging(cli.quiet);
+    stage::set_wait(cli.wait);
     let result = match cli.command {
         Command::Colmap(c) => commands::colmap::run(c),
         Command::Limap(c) => commands::limap::run(c),

@@ -110,6 +110,21 @@ impl RunReport {
 
 /// Runs the pipeline's stages in order (up to `options.until`).
 pub fn run(p: &Pipeline, options: &RunOptions) -> Result<RunReport> {
+    // One run per work folder (work units of the shard stage share it).
+    let mode = if options.shards.is_some() {
+        stage::LockMode::Shared
+    } else {
+        stage::LockMode::Exclusive
+    };
+    let _lock = stage::FolderLock::acquire(&p.work, mode)?;
+    if let Some(ckpt) = &options.warm_start
+        && !ckpt.is_file()
+    {
+        return Err(PipelineError::Config {
+            path: p.origin.clone(),
+            message: format!("--warm-start {}: no such file", ckpt.display()),
+        });
+    }
     let last = options.until.unwrap_or(StageName::Score);
     let mut stages = Vec::new();
     // The score stage's summary, when it ran or was up to date.
@@ -146,7 +161,7 @@ fn run_stage(
     Ok(match stage {
         StageName::Synth => match &p.synth {
             Some(s) => {
-                let done = synth::synth_stage::run(s, &dir, options.progress)
+                let done = synth::synth_stage::run(s, &dir, options.progress, false)
                     .map_err(|e| stage_err(name)(&e))?;
                 StageReport::done(stage, dir, &done)
             }
@@ -193,14 +208,6 @@ fn run_stage(
                     ),
                     None => (c.clone(), None),
                 };
-                if let Some(ckpt) = &init
-                    && !ckpt.is_file()
-                {
-                    return Err(PipelineError::Stage {
-                        stage: name,
-                        message: format!("--warm-start {}: no such file", ckpt.display()),
-                    });
-                }
                 let opts = train::TrainStageOptions {
                     only_if_new_shards: init.is_some(),
                     init,

@@ -13,12 +13,14 @@
 
 mod atomic;
 mod hash;
+mod lock;
 mod progress;
 mod record;
 mod runner;
 
 pub use atomic::{AtomicFile, write_atomic};
 pub use hash::{hash_config, sha256_bytes, sha256_file, sha256_files};
+pub use lock::{FolderLock, LOCK_FILE, LockMode, set_wait};
 pub use progress::{progress_bar, set_quiet};
 pub use record::{RECORD_FILE, RecordCheck, StageRecord};
 pub use runner::{Done, Note, Outputs, Stage};
@@ -44,6 +46,11 @@ pub enum StageError {
     Config(#[source] serde_json::Error),
     #[error("{}: the path is not valid UTF-8", path.display())]
     Path { path: PathBuf },
+    #[error(
+        "{} is in use by {holder}: pass --wait to wait for it, or use another folder",
+        dir.display()
+    )]
+    Busy { dir: PathBuf, holder: String },
 }
 
 pub(crate) fn io_err(path: impl Into<PathBuf>) -> impl FnOnce(std::io::Error) -> StageError {

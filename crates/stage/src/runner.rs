@@ -17,21 +17,24 @@
 //! directly.
 
 use crate::{
-    AtomicFile, RECORD_FILE, RecordCheck, StageError, StageRecord, hash_config, io_err,
-    sha256_file, write_atomic,
+    AtomicFile, FolderLock, LockMode, RECORD_FILE, RecordCheck, StageError, StageRecord,
+    hash_config, io_err, sha256_file, write_atomic,
 };
 use serde::Serialize;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 use std::time::Instant;
 
-/// One run of a stage in its folder.
+/// One run of a stage in its folder, holding the folder's lock (`crate::FolderLock`)
+/// for as long as it lives.
 #[derive(Clone, Debug)]
 pub struct Stage {
     name: &'static str,
     dir: PathBuf,
     config_hash: String,
     inputs: BTreeMap<String, String>,
+    lock: Arc<FolderLock>,
 }
 
 /// What a stage gives back: its output, and whether it was up to date.
@@ -68,18 +71,34 @@ impl<T: Note> Done<T> {
 
 impl Stage {
     /// `config` is hashed (its JSON serialisation); `inputs` maps input names to content
-    /// hashes.
+    /// hashes. Locks the folder (created if needed) for this stage alone.
     pub fn new<C: Serialize>(
         name: &'static str,
         dir: impl Into<PathBuf>,
         config: &C,
         inputs: BTreeMap<String, String>,
     ) -> Result<Self, StageError> {
+        Stage::with_lock(name, dir, config, inputs, LockMode::Exclusive)
+    }
+
+    /// As [`Stage::new`], sharing the folder with other holders of a shared lock (the
+    /// shard stage's work units, which write disjoint files).
+    pub fn with_lock<C: Serialize>(
+        name: &'static str,
+        dir: impl Into<PathBuf>,
+        config: &C,
+        inputs: BTreeMap<String, String>,
+        mode: LockMode,
+    ) -> Result<Self, StageError> {
+        let dir = dir.into();
+        let config_hash = hash_config(config)?;
+        let lock = Arc::new(FolderLock::acquire(&dir, mode)?);
         Ok(Stage {
             name,
-            dir: dir.into(),
-            config_hash: hash_config(config)?,
+            dir,
+            config_hash,
             inputs,
+            lock,
         })
     }
 
@@ -118,9 +137,14 @@ impl Stage {
     }
 
     /// Starts writing: creates the folder and removes the old record, so that from now
-    /// until [`Outputs::finish`] the folder does not claim to be complete.
+    /// until [`Outputs::finish`] the folder does not claim to be complete. With the
+    /// folder held alone, what killed runs left there (temp files `.<name>.*tmp`, staging
+    /// folders `.<name>.partial-<pid>`) is removed first: their writers are gone.
     pub fn begin(&self) -> Result<Outputs, StageError> {
         std::fs::create_dir_all(&self.dir).map_err(io_err(&self.dir))?;
+        if self.lock.mode() == LockMode::Exclusive {
+            remove_leftovers(&self.dir)?;
+        }
         let record = self.dir.join(RECORD_FILE);
         match std::fs::remove_file(&record) {
             Ok(()) => {}
@@ -167,6 +191,32 @@ impl Stage {
             seconds: start.elapsed().as_secs_f64(),
         })
     }
+}
+
+/// Removes the temp files and staging folders of writers that are gone (the caller holds
+/// the folder alone). Only hidden names of those two shapes: nothing a user keeps.
+fn remove_leftovers(dir: &Path) -> Result<(), StageError> {
+    for entry in std::fs::read_dir(dir).map_err(io_err(dir))? {
+        let entry = entry.map_err(io_err(dir))?;
+        let name = entry.file_name();
+        let Some(name) = name.to_str() else { continue };
+        let path = entry.path();
+        let temp = name.starts_with('.') && name.ends_with(".tmp");
+        let staging = name.starts_with('.') && name.contains(".partial-");
+        let result = if temp && path.is_file() {
+            std::fs::remove_file(&path)
+        } else if staging && path.is_dir() {
+            std::fs::remove_dir_all(&path)
+        } else {
+            continue;
+        };
+        match result {
+            Ok(()) => tracing::info!("removed {}, left by a killed run", path.display()),
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
+            Err(e) => return Err(io_err(&path)(e)),
+        }
+    }
+    Ok(())
 }
 
 /// The outputs of a stage being written: every file goes in through a temp name and a

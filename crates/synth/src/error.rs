@@ -32,6 +32,18 @@ pub enum SynthError {
     },
     #[error(transparent)]
     Stage(#[from] stage::StageError),
+    #[error(
+        "{}: {count} file(s) that no record of this stage names (first: {}): the scene is \
+         rendered again into this folder; move them out, or replace them with \
+         `pl2map synth --overwrite`",
+        dir.display(),
+        first.join(", ")
+    )]
+    Foreign {
+        dir: PathBuf,
+        count: usize,
+        first: Vec<String>,
+    },
     #[error("could not encode {path}: {source}")]
     Encode {
         path: PathBuf,

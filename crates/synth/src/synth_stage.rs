@@ -30,11 +30,41 @@ impl stage::Note for SceneDir {
     }
 }
 
-/// Renders the scene into `dir/<name>` unless the record in `dir` matches.
-pub fn run(config: &SynthConfig, dir: &Path, progress: bool) -> Result<Done<SceneDir>> {
+/// The contact sheet `pl2map synth --preview` writes into the scene folder: known to
+/// this stage, so a rerun replaces it like its own files.
+pub const PREVIEW_FILE: &str = "preview.png";
+
+/// Renders the scene into `dir/<name>` unless the record in `dir` matches. A scene
+/// folder holding files this stage did not write (its record does not name them) is
+/// refused, naming them, unless `replace_foreign` (`pl2map synth --overwrite`).
+pub fn run(
+    config: &SynthConfig,
+    dir: &Path,
+    progress: bool,
+    replace_foreign: bool,
+) -> Result<Done<SceneDir>> {
     config.validate()?;
     let stage = Stage::new(STAGE, dir, config, BTreeMap::new())?;
     let root = dir.join(&config.name);
+    if root.is_dir() && !replace_foreign && stage.check()? != stage::RecordCheck::UpToDate {
+        let ours: std::collections::BTreeSet<String> = stage
+            .previous()
+            .filter(|r| r.stage == STAGE)
+            .map(|r| r.outputs.into_keys().collect())
+            .unwrap_or_default();
+        let preview = format!("{}/{PREVIEW_FILE}", config.name);
+        let foreign: Vec<String> = files_under(dir, &config.name)?
+            .into_iter()
+            .filter(|f| !ours.contains(f) && *f != preview)
+            .collect();
+        if !foreign.is_empty() {
+            return Err(SynthError::Foreign {
+                dir: root,
+                count: foreign.len(),
+                first: foreign.into_iter().take(5).collect(),
+            });
+        }
+    }
     let output = SceneDir {
         root: root.clone(),
         config: config.clone(),

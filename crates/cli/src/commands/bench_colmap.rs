@@ -141,7 +141,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         rec.num_points2d(),
     );
     drop(rec);
-    println!(
+    crate::outln!(
         "model: {n_points} points3D, {n_images} images, {n_obs} observations, {n_2d} points2D; \
          {:.1} MB of .bin files (generated in {gen_s:.2} s, written in {write_s:.2} s)",
         bytes as f64 / 1e6
@@ -172,11 +172,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     };
 
     let mbps = |s: f64| bytes as f64 / 1e6 / s;
-    println!();
+    crate::outln!();
     let cpu = |c: Option<f64>| c.map_or("-".to_string(), |c| format!("{c:.2}"));
-    println!("| reader | wall, best of {repeats} (s) | MB/s | CPU, best of {repeats} (s) |");
-    println!("|---|---:|---:|---:|");
-    println!(
+    crate::outln!("| reader | wall, best of {repeats} (s) | MB/s | CPU, best of {repeats} (s) |");
+    crate::outln!("|---|---:|---:|---:|");
+    crate::outln!(
         "| pl2map colmap::read_binary | {ours:.3} | {:.0} | {} |",
         mbps(ours),
         cpu(ours_cpu)
@@ -191,21 +191,21 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                     p.observations
                 );
             }
-            println!(
+            crate::outln!(
                 "| pycolmap {} Reconstruction(dir) | {:.3} | {:.0} | {:.2} |",
                 p.version,
                 p.seconds,
                 mbps(p.seconds),
                 p.cpu_seconds
             );
-            println!();
-            println!(
+            crate::outln!();
+            crate::outln!(
                 "ratio ours / pycolmap: wall {:.2}x, CPU {} (goal <= 1.0x)",
                 ours / p.seconds,
                 ours_cpu.map_or("-".to_string(), |c| format!("{:.2}x", c / p.cpu_seconds))
             );
         }
-        Err(e) => println!("\npycolmap: skipped ({e:#})"),
+        Err(e) => crate::outln!("\npycolmap: skipped ({e:#})"),
     }
     Ok(())
 }

@@ -67,39 +67,42 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let steps = features::bench::step_times(&images, &cfg)?;
     let t1 = features::bench::throughput(&images, &cfg, 1)?;
     let t2 = features::bench::throughput(&images, &cfg, 2)?;
-    println!(
+    crate::outln!(
         "front-end benchmark: {} images of {w}x{h} from {}",
         images.len(),
         dir.display()
     );
-    println!(
+    crate::outln!(
         "mean {:.0} keypoints, {:.0} segments per image (T = {})",
-        steps.mean_keypoints, steps.mean_segments, cfg.samples_per_line
+        steps.mean_keypoints,
+        steps.mean_segments,
+        cfg.samples_per_line
     );
-    println!();
-    println!("| step                                   | ms / image |");
-    println!("|----------------------------------------|-----------:|");
-    println!(
+    crate::outln!();
+    crate::outln!("| step                                   | ms / image |");
+    crate::outln!("|----------------------------------------|-----------:|");
+    crate::outln!(
         "| SIFT detect (top {:>4})                 | {:>10.1} |",
-        cfg.sift.max_keypoints, steps.sift_detect_ms
+        cfg.sift.max_keypoints,
+        steps.sift_detect_ms
     );
-    println!(
+    crate::outln!(
         "| SIFT describe at keypoints             | {:>10.1} |",
         steps.sift_describe_ms
     );
-    println!(
+    crate::outln!(
         "| LSD                                    | {:>10.1} |",
         steps.lsd_ms
     );
-    println!(
+    crate::outln!(
         "| line sampling + descriptors            | {:>10.1} |",
         steps.line_sampling_ms
     );
-    println!();
-    println!("| threads | images/s |");
-    println!("|--------:|---------:|");
-    println!("|       1 | {t1:>8.2} |");
-    println!("|       2 | {t2:>8.2} |");
-    println!("speed-up 2 vs 1 threads: {:.2}x", t2 / t1);
+    crate::outln!();
+    crate::outln!("| threads | images/s |");
+    crate::outln!("|--------:|---------:|");
+    crate::outln!("|       1 | {t1:>8.2} |");
+    crate::outln!("|       2 | {t2:>8.2} |");
+    crate::outln!("speed-up 2 vs 1 threads: {:.2}x", t2 / t1);
     Ok(())
 }

@@ -207,12 +207,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let python = python_path(args.python);
     let dir = std::env::temp_dir().join(format!("pl2map-bench-pose-{}", std::process::id()));
     std::fs::create_dir_all(&dir)?;
-    println!(
+    crate::outln!(
         "pose benchmark: {} problems per scenario, 1 px noise, 640x480 f=525 camera, seed {}; \
          time = fastest of {} runs per problem, then the median over problems",
-        args.problems, args.seed, args.repeats
+        args.problems,
+        args.seed,
+        args.repeats
     );
-    println!(
+    crate::outln!(
         "options: thresholds {} / {} px, iterations {}..{}, success {}, Cauchy {} px (points) / {} px (lines)",
         opt.point_threshold_px,
         opt.line_threshold_px,
@@ -222,12 +224,17 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         opt.point_loss_scale_px,
         opt.line_loss_scale_px
     );
-    println!(
+    crate::outln!(
         "medians over problems; ratio = pl2map / poselib (below 1: pl2map more accurate or faster)"
     );
-    println!(
+    crate::outln!(
         "{:<42} {:<8} {:>10} {:>10} {:>10} {:>8}",
-        "scenario", "side", "rot deg", "trans cm", "time ms", "iters"
+        "scenario",
+        "side",
+        "rot deg",
+        "trans cm",
+        "time ms",
+        "iters"
     );
     let result = (|| -> anyhow::Result<()> {
         for (si, (key, title, cfg)) in scenarios.iter().enumerate() {
@@ -244,7 +251,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             let _ = ours(&problems[..1], &opt, 1)?;
             let a = medians(&ours(&problems, &opt, args.repeats)?);
             let row = |side: &str, m: &[f64; 4]| {
-                println!(
+                crate::outln!(
                     "{:<42} {:<8} {:>10.4} {:>10.4} {:>10.3} {:>8.0}",
                     if side == "pl2map" { *title } else { "" },
                     side,
@@ -256,7 +263,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             };
             row("pl2map", &a);
             match &python {
-                None => println!(
+                None => crate::outln!(
                     "{:<42} poselib skipped: no --python and no PL2MAP_PYTHON",
                     ""
                 ),
@@ -264,7 +271,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                     Ok(p) => {
                         let b = medians(&p);
                         row("poselib", &b);
-                        println!(
+                        crate::outln!(
                             "{:<42} {:<8} {:>10.3} {:>10.3} {:>10.3} {:>8.3}",
                             "",
                             "ratio",
@@ -274,7 +281,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                             a[3] / b[3]
                         );
                     }
-                    Err(e) => println!("{:<42} poselib skipped: {e:#}", ""),
+                    Err(e) => crate::outln!("{:<42} poselib skipped: {e:#}", ""),
                 },
             }
         }

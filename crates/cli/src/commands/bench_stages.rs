@@ -143,17 +143,20 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     ];
     let floor = rows[0].seconds;
     let stages: f64 = rows[1..].iter().map(|r| r.seconds).sum();
-    println!(
+    crate::outln!(
         "{n} frames, {} rayon threads, best of {}",
         rayon::current_num_threads(),
         args.repeat
     );
-    println!(
+    crate::outln!(
         "{:<28} {:>10} {:>10} {:>10}",
-        "step", "seconds", "frames/s", "x floor"
+        "step",
+        "seconds",
+        "frames/s",
+        "x floor"
     );
     for r in &rows {
-        println!(
+        crate::outln!(
             "{:<28} {:>10.3} {:>10.1} {:>10.2}",
             r.name,
             r.seconds,
@@ -161,7 +164,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             r.seconds / floor
         );
     }
-    println!(
+    crate::outln!(
         "{:<28} {:>10.3} {:>10.1} {:>10.2}",
         "ingest + import + shard",
         stages,

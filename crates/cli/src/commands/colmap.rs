@@ -91,10 +91,10 @@ fn info(dir: &Path, json: bool) -> anyhow::Result<()> {
             "mean_reprojection_error": rec.mean_reprojection_error(),
             "cameras": cameras,
         });
-        println!("{}", serde_json::to_string_pretty(&v)?);
+        crate::outln!("{}", serde_json::to_string_pretty(&v)?);
         return Ok(());
     }
-    println!(
+    crate::outln!(
         "Reconstruction: {} ({})",
         dir.display(),
         format_name(format)
@@ -116,9 +116,9 @@ fn info(dir: &Path, json: bool) -> anyhow::Result<()> {
         ),
         ("mean_reprojection_error", g6(rec.mean_reprojection_error())),
     ] {
-        println!("\t{k} = {v}");
+        crate::outln!("\t{k} = {v}");
     }
-    println!("Cameras:");
+    crate::outln!("Cameras:");
     for c in &rec.cameras {
         let params: Vec<String> = c
             .camera
@@ -128,7 +128,7 @@ fn info(dir: &Path, json: bool) -> anyhow::Result<()> {
             .zip(&c.camera.params)
             .map(|(n, v)| format!("{n}={}", g6(*v)))
             .collect();
-        println!(
+        crate::outln!(
             "\t{} {} {}x{} {} ({} images)",
             c.camera_id,
             c.camera.model.name(),

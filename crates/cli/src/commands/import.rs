@@ -32,10 +32,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         )
     })?;
     if args.json {
-        println!("{}", serde_json::to_string_pretty(&done.output.report)?);
+        crate::outln!("{}", serde_json::to_string_pretty(&done.output.report)?);
     } else {
-        println!("{}", done.line("import"));
-        print!("{}", done.output.report.table());
+        crate::outln!("{}", done.line("import"));
+        crate::out!("{}", done.output.report.table());
     }
     Ok(())
 }

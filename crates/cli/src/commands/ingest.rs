@@ -24,9 +24,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             config.dataset.map_or("no dataset", |d| d.name())
         )
     })?;
-    println!("{}", done.line("ingest"));
-    println!("{}", done.output.frames_path.display());
-    print!("{}", summary(&done.output.table));
+    crate::outln!("{}", done.line("ingest"));
+    crate::outln!("{}", done.output.frames_path.display());
+    crate::out!("{}", summary(&done.output.table));
     Ok(())
 }
 

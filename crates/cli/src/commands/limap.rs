@@ -45,9 +45,9 @@ pub fn run(cmd: Command) -> anyhow::Result<()> {
             let report = limap_dir.check();
             let summary = limap::Summary::new(&limap_dir, &report);
             if json {
-                println!("{}", serde_json::to_string_pretty(&summary)?);
+                crate::outln!("{}", serde_json::to_string_pretty(&summary)?);
             } else {
-                print!("{summary}");
+                crate::out!("{summary}");
             }
             let errors = report.errors().count();
             if errors > 0 {

@@ -83,24 +83,30 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             "line_errors_px": finite(&est.line_errors_px),
             "unusable": est.num_unusable,
         });
-        println!("{doc}");
+        crate::outln!("{doc}");
     } else {
-        println!("pose (world-to-camera, qw qx qy qz tx ty tz):");
-        println!(
+        crate::outln!("pose (world-to-camera, qw qx qy qz tx ty tz):");
+        crate::outln!(
             "{} {} {} {} {} {} {}",
-            q[0], q[1], q[2], q[3], t[0], t[1], t[2]
+            q[0],
+            q[1],
+            q[2],
+            q[3],
+            t[0],
+            t[1],
+            t[2]
         );
-        println!(
+        crate::outln!(
             "inliers: {}/{} points, {}/{} lines",
             est.num_point_inliers,
             points.len(),
             est.num_line_inliers,
             lines.len()
         );
-        println!("iterations: {}", est.iterations);
-        println!("time: {ms:.3} ms");
+        crate::outln!("iterations: {}", est.iterations);
+        crate::outln!("time: {ms:.3} ms");
         if est.num_unusable > 0 {
-            println!(
+            crate::outln!(
                 "note: {} correspondences could not be used (outside the camera model's domain)",
                 est.num_unusable
             );

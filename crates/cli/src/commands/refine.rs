@@ -40,16 +40,16 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             )
         })?;
     if args.json {
-        println!("{}", serde_json::to_string_pretty(&done.output.report)?);
+        crate::outln!("{}", serde_json::to_string_pretty(&done.output.report)?);
     } else {
-        println!("{}", done.line("refine"));
-        print!("{}", done.output.report.table());
+        crate::outln!("{}", done.line("refine"));
+        crate::out!("{}", done.output.report.table());
     }
     if let Some(exact) = &args.exact {
         let exact = ExactLabels::read(exact)?;
         let before = LabelTables::read(&args.labels)?;
         let after = LabelTables::read(&args.out)?;
-        print!(
+        crate::out!(
             "{}",
             ablation::table(&ablation::compare(&exact, &before, &after)?)
         );

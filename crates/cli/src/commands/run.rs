@@ -34,6 +34,11 @@ pub struct Args {
 }
 
 pub fn run(args: Args, quiet: bool) -> anyhow::Result<()> {
+    if args.shards.is_some() {
+        // Work units run side by side: the stages they share (the data stages before
+        // the shards, and the shard folder's merge) take turns instead of refusing.
+        stage::set_wait(true);
+    }
     let p = pipeline::Pipeline::load_unit(&args.pipeline, args.work, args.scene.as_deref())?;
     let options = pipeline::RunOptions {
         until: args.until,
@@ -42,38 +47,38 @@ pub fn run(args: Args, quiet: bool) -> anyhow::Result<()> {
         shards: args.shards,
     };
     let context = || format!("running {}", args.pipeline.display());
-    println!(
+    crate::outln!(
         "{} (work folder {})",
         args.pipeline.display(),
         p.work.display()
     );
     if args.compare_refine {
         let a = pipeline::run_ablation(&p, &options).with_context(context)?;
-        println!("with [refine]:");
-        print!("{}", a.refined.table());
-        println!(
+        crate::outln!("with [refine]:");
+        crate::out!("{}", a.refined.table());
+        crate::outln!(
             "\nwithout [refine] ({}):",
             p.without_refine()
                 .work
                 .join(pipeline::WITHOUT_REFINE)
                 .display()
         );
-        print!("{}", a.imported.table());
-        println!("\nscore on the test frames, labels refined on depth vs as imported:\n");
-        print!("{}", a.table());
+        crate::out!("{}", a.imported.table());
+        crate::outln!("\nscore on the test frames, labels refined on depth vs as imported:\n");
+        crate::out!("{}", a.table());
         return Ok(());
     }
     let report = pipeline::run(&p, &options).with_context(context)?;
-    print!("{}", report.table());
+    crate::out!("{}", report.table());
     if let Some(summary) = &report.score {
-        println!(
+        crate::outln!(
             "\nscore on the {} frames ({}):\n",
             summary.split,
             p.stage_dir(pipeline::StageName::Score)
                 .join(score::run::SUMMARY_MD_FILE)
                 .display()
         );
-        print!("{}", summary.table());
+        crate::out!("{}", summary.table());
     }
     Ok(())
 }

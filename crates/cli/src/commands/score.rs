@@ -38,14 +38,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     };
     let done = score::score_stage::run(&args.config, &args.shards, &source, &args.out)
         .with_context(|| format!("scoring the shards in {}", args.shards.display()))?;
-    println!("{}", done.line("score"));
-    print!("{}", done.output.summary.markdown());
+    crate::outln!("{}", done.line("score"));
+    crate::out!("{}", done.output.summary.markdown());
     if let Some(run) = &done.output.run {
-        println!("\nMedian time per frame and step (not written: it differs between runs):\n");
-        print!("{}", score::summary::timing_table(&run.results));
-        println!();
+        crate::outln!("\nMedian time per frame and step (not written: it differs between runs):\n");
+        crate::out!("{}", score::summary::timing_table(&run.results));
+        crate::outln!();
         for f in &run.files {
-            println!("wrote {}", f.display());
+            crate::outln!("wrote {}", f.display());
         }
     }
     Ok(())

@@ -60,8 +60,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     })?;
     let output = &done.output;
     let m = &output.manifest;
-    println!("{}", done.line("shard"));
-    println!(
+    crate::outln!("{}", done.line("shard"));
+    crate::outln!(
         "{}: plan: {} shards, {} frames{}",
         args.out.display(),
         m.planned_shards,
@@ -78,7 +78,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         } else {
             ""
         };
-        println!(
+        crate::outln!(
             "  {}  frames {}..={}  {} frames  {} bytes  {}{kept}",
             s.file,
             s.first_frame,

@@ -11,8 +11,9 @@ use synth::{Split, SynthConfig, color_name, contact_sheet};
 pub struct Args {
     /// Output folder; the scene is written to OUT/<--name>.
     pub out: PathBuf,
-    /// Replace an existing OUT/<name> that this command did not record (a scene it
-    /// recorded in OUT/stage.json is replaced when the settings change).
+    /// Replace OUT/<name> even when it holds files this command did not write (by
+    /// default those are refused, naming them; a scene this command recorded in
+    /// OUT/stage.json is replaced when the settings change).
     #[arg(long)]
     pub overwrite: bool,
     /// Write OUT/<name>/preview.png: a few training frames with their SIFT keypoints and
@@ -28,24 +29,12 @@ const PREVIEW_FRAMES: usize = 6;
 
 pub fn run(args: Args, quiet: bool) -> anyhow::Result<()> {
     let cfg = &args.config;
-    let dest = args.out.join(&cfg.name);
-    let recorded = stage::StageRecord::load(&args.out)
-        .ok()
-        .flatten()
-        .is_some_and(|r| r.stage == synth::synth_stage::STAGE);
-    if dest.exists() && !recorded && !args.overwrite {
-        anyhow::bail!(
-            "{} already exists and {} does not record it: pass --overwrite to replace it",
-            dest.display(),
-            args.out.join(stage::RECORD_FILE).display()
-        );
-    }
-    let done = synth::synth_stage::run(cfg, &args.out, !quiet)
+    let done = synth::synth_stage::run(cfg, &args.out, !quiet, args.overwrite)
         .with_context(|| format!("writing the synthetic scene to {}", args.out.display()))?;
-    println!("{}", done.line("synth"));
-    println!("scene folder: {}", done.output.root.display());
+    crate::outln!("{}", done.line("synth"));
+    crate::outln!("scene folder: {}", done.output.root.display());
     if cfg.label_noise_cm > 0.0 && cfg.ground_truth {
-        println!(
+        crate::outln!(
             "labels perturbed by {} cm RMS; exact values in {}",
             cfg.label_noise_cm,
             done.output
@@ -56,9 +45,9 @@ pub fn run(args: Args, quiet: bool) -> anyhow::Result<()> {
         );
     }
     if args.preview {
-        let path = done.output.root.join("preview.png");
+        let path = done.output.root.join(synth::synth_stage::PREVIEW_FILE);
         write_preview(cfg, &done.output.root, &path)?;
-        println!("preview written to {}", path.display());
+        crate::outln!("preview written to {}", path.display());
     }
     Ok(())
 }

@@ -47,9 +47,9 @@ pub fn run(args: Args, matches: &clap::ArgMatches, quiet: bool) -> anyhow::Resul
     };
     let done = train::train_stage::run(&config, &args.shards, &args.out, &options)
         .with_context(|| format!("training into {}", args.out.display()))?;
-    println!("{}", done.line("train"));
+    crate::outln!("{}", done.line("train"));
     let c = &done.output.config;
-    println!(
+    crate::outln!(
         "network: D = {}, {} layers, head widths {:?}; lr {:.1e} to 1/2^{} ({}); limits {} keypoints, {} lines",
         c.model.descriptor_dim,
         c.model.layers.len(),
@@ -61,7 +61,7 @@ pub fn run(args: Args, matches: &clap::ArgMatches, quiet: bool) -> anyhow::Resul
         c.limits.max_lines
     );
     if let Some(s) = &done.output.summary {
-        println!(
+        crate::outln!(
             "trained {} iteration(s){} on {} training frame(s) in {:.1} s ({:.3} s/iteration)",
             s.iterations_done,
             s.resumed_from
@@ -72,7 +72,7 @@ pub fn run(args: Args, matches: &clap::ArgMatches, quiet: bool) -> anyhow::Resul
             s.seconds / (s.iterations_done - s.resumed_from.unwrap_or(0)).max(1) as f64,
         );
         let m = &s.last;
-        println!(
+        crate::outln!(
             "last {} iterations: loss {:.4} = L_m {:.4} (points) + {:.4} (lines), L_r {:.4}, L_pi {:.4}; \
              {} step(s) skipped (nothing to learn)",
             m.iterations,
@@ -83,12 +83,12 @@ pub fn run(args: Args, matches: &clap::ArgMatches, quiet: bool) -> anyhow::Resul
             m.reprojection,
             s.skipped_steps
         );
-        println!("metrics: {}", s.metrics.display());
+        crate::outln!("metrics: {}", s.metrics.display());
         if let Some(p) = &s.plot {
-            println!("loss plot: {} ({})", p.display(), train::plot::LEGEND);
+            crate::outln!("loss plot: {} ({})", p.display(), train::plot::LEGEND);
         }
     }
-    println!("model: {}", done.output.model.display());
+    crate::outln!("model: {}", done.output.model.display());
     Ok(())
 }
 

@@ -26,9 +26,9 @@ pub struct LockArgs {
 pub fn verify(args: VerifyArgs, quiet: bool) -> anyhow::Result<()> {
     let report = pipeline::verify(&args.manifest, args.work.as_deref(), !quiet)
         .with_context(|| format!("rebuilding {}", args.manifest.display()))?;
-    print!("{}", report.table());
+    crate::out!("{}", report.table());
     report.check()?;
-    println!(
+    crate::outln!(
         "{}: all {} hashes match",
         args.manifest.display(),
         report.rows.len()
@@ -45,10 +45,10 @@ pub fn lock(args: LockArgs, quiet: bool) -> anyhow::Result<()> {
     };
     let report = pipeline::run(&p, &options)
         .with_context(|| format!("running {}", args.pipeline.display()))?;
-    print!("{}", report.table());
+    crate::out!("{}", report.table());
     let lock = pipeline::Lock::collect(&p)?;
     lock.write(&args.out, &args.pipeline.display().to_string())?;
-    println!(
+    crate::outln!(
         "{}: {} inputs, {} outputs, {} shards",
         args.out.display(),
         lock.inputs.len(),

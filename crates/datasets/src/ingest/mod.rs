@@ -64,8 +64,8 @@ pub fn run(config: &IngestConfig, out_dir: &Path) -> Result<Done<IngestOutput>> 
         &plan.normalised_config,
         hashes.inputs.clone(),
     )?;
-    // Registered depth of an earlier ingest run would linger; only a folder this stage
-    // wrote (its record says so) is removed.
+    // Registered depth of an earlier ingest run would linger: the maps its record names
+    // are removed (anything else in the folder is left alone).
     let previous = stage.previous();
     stage.run(
         |_| {
@@ -77,8 +77,16 @@ pub fn run(config: &IngestConfig, out_dir: &Path) -> Result<Done<IngestOutput>> 
         },
         |out| {
             let depth_dir = out_dir.join(DEPTH_DIR);
-            if previous.is_some_and(|r| r.stage == STAGE) && depth_dir.is_dir() {
-                std::fs::remove_dir_all(&depth_dir).map_err(error::io_err(&depth_dir))?;
+            if let Some(r) = previous.filter(|r| r.stage == STAGE) {
+                let prefix = format!("{DEPTH_DIR}/");
+                for rel in r.outputs.keys().filter(|k| k.starts_with(&prefix)) {
+                    let p = out_dir.join(rel);
+                    match std::fs::remove_file(&p) {
+                        Ok(()) => {}
+                        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
+                        Err(e) => return Err(error::io_err(&p)(e)),
+                    }
+                }
             }
             let table = build::build(&plan, &hashes, Some(&depth_dir))?;
             table.write_parquet(&out.path(FRAMES_FILE))?;

@@ -5,7 +5,8 @@
 use super::error::{IngestError, Result};
 use std::path::Path;
 
-/// Reads a text file; a missing file is [`IngestError::Missing`] with `what`.
+/// Reads a text file; a missing file is [`IngestError::Missing`] with `what`. A UTF-8
+/// byte order mark (editors on Windows write one) is dropped: it is not part of the text.
 pub(crate) fn read_text(path: &Path, what: &str) -> Result<String> {
     let bytes = match std::fs::read(path) {
         Ok(b) => b,
@@ -22,7 +23,7 @@ pub(crate) fn read_text(path: &Path, what: &str) -> Result<String> {
             });
         }
     };
-    String::from_utf8(bytes).map_err(|e| {
+    let text = String::from_utf8(bytes).map_err(|e| {
         let ok = e.utf8_error().valid_up_to();
         let line = e.as_bytes()[..ok].iter().filter(|&&b| b == b'\n').count() + 1;
         IngestError::Parse {
@@ -30,6 +31,10 @@ pub(crate) fn read_text(path: &Path, what: &str) -> Result<String> {
             line,
             message: format!("expected UTF-8 text, found an invalid byte at offset {ok}"),
         }
+    })?;
+    Ok(match text.strip_prefix('\u{feff}') {
+        Some(rest) => rest.to_string(),
+        None => text,
     })
 }
 
@@ -74,6 +79,14 @@ pub(crate) fn parse_usize(path: &Path, line: usize, token: &str, what: &str) -> 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_byte_order_mark_is_not_text() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("pose.txt");
+        std::fs::write(&p, "\u{feff}1 0 0 0\r\n").unwrap();
+        assert_eq!(read_text(&p, "pose file").unwrap(), "1 0 0 0\r\n");
+    }
 
     #[test]
     fn crlf_and_numbering() {

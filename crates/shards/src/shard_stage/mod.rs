@@ -296,7 +296,14 @@ fn run_unit(
             stage::sha256_file(&labels_dir.join(f))?,
         );
     }
-    let stage = Stage::new(STAGE, out, config, inputs.clone())?;
+    // Work units write disjoint shards of one folder side by side: they share it, and
+    // a whole run waits for them (and they for it).
+    let mode = if full {
+        stage::LockMode::Exclusive
+    } else {
+        stage::LockMode::Shared
+    };
+    let stage = Stage::with_lock(STAGE, out, config, inputs.clone(), mode)?;
     let config_hash = stage.config_hash().to_string();
     let expected = Manifest {
         format_version: crate::SHARD_FORMAT_VERSION,

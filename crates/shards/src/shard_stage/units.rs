@@ -5,7 +5,7 @@
 
 use super::{MANIFEST_FILE, ShardStageError};
 use crate::Manifest;
-use stage::Stage;
+use stage::{FolderLock, LockMode, Stage};
 use std::ops::Range;
 use std::path::Path;
 
@@ -70,11 +70,16 @@ pub(super) fn save_record(stage: &Stage, manifest: &Manifest) -> Result<(), Shar
 
 /// Merges the unit manifests of this run found in `out`; when they cover the whole
 /// plan, writes `manifest.json` and `stage.json`.
+/// The lock of the merge step (work units finish side by side).
+const MERGE_LOCK_FILE: &str = ".merge.lock";
+
 pub(super) fn finish_if_complete(
     stage: &Stage,
     expected: &Manifest,
 ) -> Result<bool, ShardStageError> {
     let out = stage.dir();
+    // One unit at a time merges the unit manifests and writes the record.
+    let _merge = FolderLock::wait_named(out, MERGE_LOCK_FILE, LockMode::Exclusive)?;
     let io = |source| ShardStageError::Io {
         path: out.to_path_buf(),
         source,

@@ -1,0 +1,184 @@
+//! One writer per folder: an operating-system file lock on `<dir>/.pl2map.lock`, held
+//! for as long as a run or a stage writes there. The lock dies with its process, so a
+//! SIGKILLed run never leaves a stale lock behind; the file itself only says who holds
+//! it (pid, start time, command line) for the message a second run prints.
+//!
+//! Exclusive for a whole run or a stage; shared for the shard stage's work units, which
+//! write disjoint files of one folder side by side (a whole run then waits for them).
+//! A busy folder is refused with the holder named, or waited for when the process asked
+//! to wait ([`set_wait`], `--wait` on the command line).
+
+use crate::{StageError, io_err};
+use std::fs::{File, OpenOptions, TryLockError};
+use std::io::{Read, Seek, Write};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{SystemTime, UNIX_EPOCH};
+
+pub const LOCK_FILE: &str = ".pl2map.lock";
+
+static WAIT: AtomicBool = AtomicBool::new(false);
+
+/// `--wait` for the whole process: wait for a busy folder instead of refusing it.
+pub fn set_wait(wait: bool) {
+    WAIT.store(wait, Ordering::Relaxed);
+}
+
+/// How a folder is held.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LockMode {
+    /// One holder: a run or a stage.
+    Exclusive,
+    /// Several holders that write disjoint files (work units).
+    Shared,
+}
+
+/// A held lock; released when dropped (or when the process ends, however it ends).
+#[derive(Debug)]
+pub struct FolderLock {
+    file: File,
+    path: PathBuf,
+    mode: LockMode,
+}
+
+impl FolderLock {
+    /// Locks `dir` (created if needed). Refuses a folder another process holds, naming
+    /// it, unless the process asked to wait.
+    pub fn acquire(dir: &Path, mode: LockMode) -> Result<FolderLock, StageError> {
+        FolderLock::acquire_named(dir, LOCK_FILE, mode)
+    }
+
+    /// As [`FolderLock::acquire`] with another lock file in `dir`: a lock on one step of
+    /// the folder's work (the shard stage's merge of unit manifests).
+    pub fn acquire_named(dir: &Path, name: &str, mode: LockMode) -> Result<FolderLock, StageError> {
+        FolderLock::open(dir, name, mode, WAIT.load(Ordering::Relaxed))
+    }
+
+    /// As [`FolderLock::acquire_named`], always waiting: for short steps that take
+    /// turns (never refused).
+    pub fn wait_named(dir: &Path, name: &str, mode: LockMode) -> Result<FolderLock, StageError> {
+        FolderLock::open(dir, name, mode, true)
+    }
+
+    fn open(dir: &Path, name: &str, mode: LockMode, wait: bool) -> Result<FolderLock, StageError> {
+        std::fs::create_dir_all(dir).map_err(io_err(dir))?;
+        let path = dir.join(name);
+        let mut file = OpenOptions::new()
+            .read(true)
+            .write(true)
+            .create(true)
+            .truncate(false)
+            .open(&path)
+            .map_err(io_err(&path))?;
+        let attempt = match mode {
+            LockMode::Exclusive => file.try_lock(),
+            LockMode::Shared => file.try_lock_shared(),
+        };
+        match attempt {
+            Ok(()) => {}
+            Err(TryLockError::WouldBlock) => {
+                if !wait {
+                    return Err(StageError::Busy {
+                        dir: dir.to_path_buf(),
+                        holder: holder(&mut file),
+                    });
+                }
+                tracing::info!(
+                    "{} is in use ({}): waiting",
+                    dir.display(),
+                    holder(&mut file)
+                );
+                match mode {
+                    LockMode::Exclusive => file.lock(),
+                    LockMode::Shared => file.lock_shared(),
+                }
+                .map_err(io_err(&path))?;
+            }
+            Err(TryLockError::Error(e)) => return Err(io_err(&path)(e)),
+        }
+        if mode == LockMode::Exclusive {
+            // Who holds it, for the message of a second run. Written under the lock;
+            // shared holders leave the file alone (they would overwrite each other).
+            let now = SystemTime::now()
+                .duration_since(UNIX_EPOCH)
+                .map_or(0, |d| d.as_secs());
+            let command: Vec<String> = std::env::args().collect();
+            let text = format!(
+                "pid {}\nstarted {now}\ncommand {}\n",
+                std::process::id(),
+                command.join(" ")
+            );
+            file.set_len(0).map_err(io_err(&path))?;
+            file.rewind().map_err(io_err(&path))?;
+            file.write_all(text.as_bytes()).map_err(io_err(&path))?;
+        }
+        Ok(FolderLock { file, path, mode })
+    }
+
+    pub fn mode(&self) -> LockMode {
+        self.mode
+    }
+
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+}
+
+impl Drop for FolderLock {
+    fn drop(&mut self) {
+        // Closing the file releases the lock too; unlocking first makes it explicit.
+        let _ = self.file.unlock();
+    }
+}
+
+/// "process 1234 (pl2map run ...), running for 35 s" from the lock file, or what is known.
+fn holder(file: &mut File) -> String {
+    let mut text = String::new();
+    let _ = file.rewind();
+    let _ = file.read_to_string(&mut text);
+    let field = |key: &str| {
+        text.lines()
+            .find_map(|l| l.strip_prefix(key))
+            .map(|v| v.trim().to_string())
+    };
+    match (field("pid "), field("started "), field("command ")) {
+        (Some(pid), started, command) => {
+            let age = started
+                .and_then(|s| s.parse::<u64>().ok())
+                .and_then(|s| {
+                    let now = SystemTime::now().duration_since(UNIX_EPOCH).ok()?.as_secs();
+                    Some(format!(", running for {} s", now.saturating_sub(s)))
+                })
+                .unwrap_or_default();
+            let command = command.map(|c| format!(" ({c})")).unwrap_or_default();
+            format!("process {pid}{command}{age}")
+        }
+        _ => "work units of another process".to_string(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn exclusive_refuses_a_second_holder_and_names_the_first() {
+        let dir = tempfile::tempdir().unwrap();
+        let first = FolderLock::acquire(dir.path(), LockMode::Exclusive).unwrap();
+        // A second open file description conflicts even within one process (flock).
+        let e = FolderLock::acquire(dir.path(), LockMode::Exclusive).unwrap_err();
+        let text = e.to_string();
+        assert!(
+            text.contains(&format!("process {}", std::process::id())),
+            "{text}"
+        );
+        assert!(text.contains("--wait"), "{text}");
+        assert!(FolderLock::acquire(dir.path(), LockMode::Shared).is_err());
+        drop(first);
+        let a = FolderLock::acquire(dir.path(), LockMode::Shared).unwrap();
+        let b = FolderLock::acquire(dir.path(), LockMode::Shared).unwrap();
+        assert!(FolderLock::acquire(dir.path(), LockMode::Exclusive).is_err());
+        drop((a, b));
+        FolderLock::acquire(dir.path(), LockMode::Exclusive).unwrap();
+    }
+}
