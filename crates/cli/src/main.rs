@@ -92,8 +92,58 @@ fn main() -> std::process::ExitCode {
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {e:#}");
+            eprintln!("error: {}", error_text(&e));
             std::process::ExitCode::FAILURE
         }
+    }
+}
+
+/// The error and its causes, each said once: the project's errors often put their
+/// cause's text in their own message (`{path}: {source}`), which anyhow's `{:#}` would
+/// repeat.
+fn error_text(e: &anyhow::Error) -> String {
+    let mut text = String::new();
+    for cause in e.chain() {
+        let part = cause.to_string();
+        if !text.contains(&part) {
+            if !text.is_empty() {
+                text.push_str(": ");
+            }
+            text.push_str(&part);
+        }
+    }
+    text
+}
+
+#[cfg(test)]
+mod tests {
+    use super::error_text;
+
+    /// An error whose message already holds its cause's text, as `{path}: {source}`.
+    #[derive(Debug)]
+    struct WithPath(std::io::Error);
+
+    impl std::fmt::Display for WithPath {
+        fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+            write!(f, "frames.parquet: {}", self.0)
+        }
+    }
+
+    impl std::error::Error for WithPath {
+        fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+            Some(&self.0)
+        }
+    }
+
+    #[test]
+    fn each_cause_is_said_once() {
+        let e = anyhow::Error::new(WithPath(std::io::Error::other("No space left on device")))
+            .context("stage ingest");
+        assert_eq!(
+            error_text(&e),
+            "stage ingest: frames.parquet: No space left on device"
+        );
+        let plain = anyhow::Error::new(std::io::Error::other("gone")).context("reading x");
+        assert_eq!(error_text(&plain), "reading x: gone");
     }
 }

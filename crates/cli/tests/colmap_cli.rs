@@ -181,3 +181,26 @@ fn errors_name_the_file_and_place() {
         "{err}"
     );
 }
+
+/// `pl2map colmap info MODEL | true`: the reader is gone before the first line.
+#[test]
+fn info_with_a_closed_stdout_is_a_quiet_exit() {
+    let Some(scene) = testkit::sample::sample_data("colmap-maupertuis") else {
+        return;
+    };
+    for json in [false, true] {
+        let mut c = Command::new(env!("CARGO_BIN_EXE_pl2map"));
+        c.args(["colmap", "info"]).arg(scene.join("model-bin"));
+        if json {
+            c.arg("--json");
+        }
+        let out = c
+            .stdout(testkit::process::closed_stdout())
+            .stderr(std::process::Stdio::piped())
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(out.status.success(), "{}: {stderr}", out.status);
+        assert!(!stderr.contains("Broken pipe"), "{stderr}");
+    }
+}

@@ -213,3 +213,28 @@ fn malformed_inputs_are_reported_with_file_and_line() {
     let err = run_err(bin().args(["pose", "--camera", cam, "--points"]).arg(&pp));
     assert!(err.contains("not enough usable correspondences"), "{err}");
 }
+
+#[test]
+fn a_closed_stdout_is_a_quiet_exit() {
+    let pb = generate_seeded(&SyntheticConfig::bench_points_lines(), 11);
+    let dir = tempfile::tempdir().unwrap();
+    let (pp, lp) = write_problem(&pb, dir.path());
+    for json in [false, true] {
+        let mut c = bin();
+        c.args(["pose", "--camera", &camera_arg(&pb.camera), "--points"])
+            .arg(&pp)
+            .arg("--lines")
+            .arg(&lp);
+        if json {
+            c.arg("--json");
+        }
+        let out = c
+            .stdout(testkit::process::closed_stdout())
+            .stderr(std::process::Stdio::piped())
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(out.status.success(), "{}: {stderr}", out.status);
+        assert!(!stderr.contains("Broken pipe"), "{stderr}");
+    }
+}

@@ -163,6 +163,13 @@ impl Pipeline {
             None => r.path(&["work"], &file.work)?,
         };
         let work = absolute(&work)?;
+        // Stage records, frames tables and manifests hold paths as text.
+        if work.to_str().is_none() {
+            return Err(r.config(format!(
+                "the work folder {} is not valid UTF-8; choose another",
+                work.display()
+            )));
+        }
         let mut ingest = file.ingest.clone();
         let mut import = file.import.clone();
         match &file.synth {
@@ -186,7 +193,7 @@ impl Pipeline {
                     )));
                 }
                 s.validate()
-                    .map_err(|e| r.config(format!("[synth]: {e}")))?;
+                    .map_err(|e| r.section("synth", e.to_string()))?;
                 let root = work.join(StageName::Synth.dir()).join(&s.name);
                 let gt = root.join(synth::gt::GT_DIR);
                 ingest.dataset = Some(match s.layout {
@@ -240,12 +247,27 @@ impl Pipeline {
         if file.score.is_some() && file.train.is_none() {
             return Err(r.config("[score] scores the model of [train]: add [train]".into()));
         }
+        // Every section is checked now, not when its stage starts minutes later.
+        file.import
+            .validate()
+            .map_err(|e| r.section("import", e.to_string()))?;
+        if let Some(refine) = &file.refine {
+            refine
+                .validate()
+                .map_err(|e| r.section("refine", e.to_string()))?;
+        }
         file.shard
             .validate()
-            .map_err(|e| r.config(format!("[shard]: {e}")))?;
+            .map_err(|e| r.section("shard", e.to_string()))?;
         if let Some(t) = &file.train {
             t.validate()
-                .map_err(|e| r.config(format!("[train]: {e}")))?;
+                .map_err(|e| r.section("train", e.to_string()))?;
+        }
+        if let Some(score) = &file.score {
+            score
+                .resolve()
+                .validate()
+                .map_err(|e| r.section("score", e.to_string()))?;
         }
         Ok(Pipeline {
             origin: origin.to_path_buf(),
@@ -392,6 +414,44 @@ impl<'a> Resolver<'a> {
         }
     }
 
+    /// A section's invalid value, at the line of the key the message names (the first
+    /// key of the section written in the file that the message mentions), else at the
+    /// section.
+    fn section(&self, section: &str, message: String) -> PipelineError {
+        let is_ident = |c: char| c.is_ascii_alphanumeric() || c == '_';
+        let mentions = |key: &str| {
+            message.match_indices(key).map(|(at, _)| at).find(|&at| {
+                let before = message[..at].chars().next_back();
+                let after = message[at + key.len()..].chars().next();
+                !before.is_some_and(is_ident) && !after.is_some_and(is_ident)
+            })
+        };
+        let keys = self.keys(section);
+        let named = keys
+            .iter()
+            .filter_map(|k| mentions(k).map(|at| (at, k)))
+            .min();
+        match named {
+            Some((_, key)) => self.value(&[section, key], message),
+            None => self.config(format!("[{section}]: {message}")),
+        }
+    }
+
+    /// The keys written in a section of the file.
+    fn keys(&self, section: &str) -> Vec<String> {
+        let Some(doc) = self.doc.as_ref() else {
+            return Vec::new();
+        };
+        let mut table = doc.get_ref();
+        for name in self.prefix.iter().map(String::as_str).chain([section]) {
+            match table.get(name).map(|v| v.get_ref()) {
+                Some(toml::de::DeValue::Table(t)) => table = t,
+                _ => return Vec::new(),
+            }
+        }
+        table.keys().map(|k| k.get_ref().to_string()).collect()
+    }
+
     fn config(&self, message: String) -> PipelineError {
         PipelineError::Config {
             path: self.origin.to_path_buf(),
@@ -524,5 +584,69 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("label_noise_cm"), "{e}");
+    }
+
+    #[test]
+    fn every_section_is_checked_at_load_with_the_line_of_its_key() {
+        let base = "work = \"w\"\n[synth]\ntiny = true\n[train]\n";
+        for (section, text, key) in [
+            (
+                "shard",
+                "[shard]\nframes_per_shard = 0\n",
+                "shard.frames_per_shard",
+            ),
+            (
+                "refine",
+                "[refine]\nmax_depth_m = -3.0\n",
+                "refine.max_depth_m",
+            ),
+            (
+                "refine",
+                "[refine]\nline_max_samples = 0\n",
+                "refine.line_max_samples",
+            ),
+            (
+                "import",
+                "[import]\nsegment_scale = 0.0\n",
+                "import.segment_scale",
+            ),
+            (
+                "score",
+                "[score]\npoint_threshold_px = -1.0\n",
+                "score.point_threshold_px",
+            ),
+            (
+                "score",
+                "[score]\nmin_point_reliability = 2.0\n",
+                "score.min_point_reliability",
+            ),
+        ] {
+            let e = resolve(&format!("{base}{text}")).unwrap_err();
+            match &e {
+                PipelineError::Value { line, key: k, .. } => {
+                    assert_eq!((*line, k.as_str()), (6, key), "{section}: {e}");
+                }
+                _ => panic!("{section}: not at its key: {e}"),
+            }
+        }
+    }
+
+    #[test]
+    fn a_work_folder_that_is_not_utf8_is_named() {
+        use std::os::unix::ffi::OsStrExt as _;
+        let text = "work = \"w\"\n[synth]\ntiny = true\n";
+        let f = parse::<PipelineFile>(text, Path::new("/p/x.toml")).unwrap();
+        let work = PathBuf::from(std::ffi::OsStr::from_bytes(b"/tmp/w\xff"));
+        let e = Pipeline::resolve(
+            f,
+            text,
+            Path::new("/p/x.toml"),
+            Path::new("/p"),
+            Some(work),
+            &[],
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("/tmp/w") && e.contains("not valid UTF-8"), "{e}");
     }
 }

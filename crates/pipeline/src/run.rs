@@ -31,6 +31,16 @@ pub struct StageReport {
 }
 
 impl StageReport {
+    /// The status as the table says it, and its notes (why it is off, else the stage's
+    /// own note).
+    fn status_and_notes(&self) -> (&'static str, String) {
+        match &self.status {
+            Status::Ran => ("ran", self.note.clone()),
+            Status::Skipped => ("up to date", self.note.clone()),
+            Status::Off(why) => ("off", why.clone()),
+        }
+    }
+
     fn done<T: Note>(stage: StageName, dir: PathBuf, done: &Done<T>) -> Self {
         StageReport {
             stage,
@@ -92,11 +102,7 @@ impl RunReport {
             "stage", "status", "seconds", "notes"
         );
         for r in &self.stages {
-            let (status, why) = match &r.status {
-                Status::Ran => ("ran", r.note.clone()),
-                Status::Skipped => ("up to date", r.note.clone()),
-                Status::Off(why) => ("off", why.clone()),
-            };
+            let (status, why) = r.status_and_notes();
             s.push_str(&format!(
                 "{:<8} {:<14} {:>8.1}  {}\n",
                 r.stage, status, r.seconds, why
@@ -137,7 +143,8 @@ pub fn run(p: &Pipeline, options: &RunOptions) -> Result<RunReport> {
             StageReport::off(stage, dir, "a --shards work unit ends with its shards")
         } else {
             let r = run_stage(p, stage, dir, options, &mut score_summary)?;
-            tracing::info!("{stage}: {:?}", r.status);
+            let (status, notes) = r.status_and_notes();
+            tracing::info!("{stage}: {status}, {notes}");
             r
         };
         stages.push(report);

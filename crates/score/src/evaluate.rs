@@ -103,8 +103,8 @@ impl ScoreConfig {
             }
         }
         for (name, v) in [
-            ("point threshold", self.ransac.point_threshold_px),
-            ("line threshold", self.ransac.line_threshold_px),
+            ("point_threshold_px", self.ransac.point_threshold_px),
+            ("line_threshold_px", self.ransac.line_threshold_px),
         ] {
             if !(v.is_finite() && v > 0.0) {
                 return Err(ScoreError::Config(format!(

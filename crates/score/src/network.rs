@@ -19,8 +19,8 @@ pub struct NetworkLocaliser {
 impl NetworkLocaliser {
     /// Loads a checkpoint (`model.ckpt` or `checkpoint.ckpt` of `pl2map train`).
     pub fn load(checkpoint: &Path) -> Result<Self, ScoreError> {
-        let predictor = Predictor::load(checkpoint).map_err(|e| ScoreError::Network {
-            checkpoint: checkpoint.to_path_buf(),
+        // The model crate's errors name the checkpoint file already.
+        let predictor = Predictor::load(checkpoint).map_err(|e| ScoreError::Model {
             reason: e.to_string(),
         })?;
         Ok(NetworkLocaliser {

@@ -96,22 +96,27 @@ impl FolderLock {
             }
             Err(TryLockError::Error(e)) => return Err(io_err(&path)(e)),
         }
-        if mode == LockMode::Exclusive {
-            // Who holds it, for the message of a second run. Written under the lock;
-            // shared holders leave the file alone (they would overwrite each other).
-            let now = SystemTime::now()
-                .duration_since(UNIX_EPOCH)
-                .map_or(0, |d| d.as_secs());
-            let command: Vec<String> = std::env::args().collect();
-            let text = format!(
-                "pid {}\nstarted {now}\ncommand {}\n",
-                std::process::id(),
-                command.join(" ")
-            );
-            file.set_len(0).map_err(io_err(&path))?;
-            file.rewind().map_err(io_err(&path))?;
-            file.write_all(text.as_bytes()).map_err(io_err(&path))?;
-        }
+        // Who holds it, for the message of a second run; written under the lock.
+        // Shared holders all write the same line (they may overwrite each other).
+        let text = match mode {
+            LockMode::Exclusive => {
+                let now = SystemTime::now()
+                    .duration_since(UNIX_EPOCH)
+                    .map_or(0, |d| d.as_secs());
+                let command: Vec<String> = std::env::args_os()
+                    .map(|a| a.to_string_lossy().into_owned())
+                    .collect();
+                format!(
+                    "pid {}\nstarted {now}\ncommand {}\n",
+                    std::process::id(),
+                    command.join(" ")
+                )
+            }
+            LockMode::Shared => SHARED_TEXT.to_string(),
+        };
+        file.set_len(0).map_err(io_err(&path))?;
+        file.rewind().map_err(io_err(&path))?;
+        file.write_all(text.as_bytes()).map_err(io_err(&path))?;
         Ok(FolderLock { file, path, mode })
     }
 
@@ -126,12 +131,20 @@ impl FolderLock {
 
 impl Drop for FolderLock {
     fn drop(&mut self) {
-        // Closing the file releases the lock too; unlocking first makes it explicit.
+        // The holder's name goes with it (a killed holder's stays until the next one
+        // overwrites it). Closing the file releases the lock too; unlocking first makes
+        // it explicit.
+        if self.mode == LockMode::Exclusive {
+            let _ = self.file.set_len(0);
+        }
         let _ = self.file.unlock();
     }
 }
 
-/// "process 1234 (pl2map run ...), running for 35 s" from the lock file, or what is known.
+const SHARED_TEXT: &str = "shared by work units\n";
+
+/// "process 1234 (pl2map run ...), started 2026-12-02 21:04:05 UTC, 35 s ago" from the
+/// lock file, or what is known.
 fn holder(file: &mut File) -> String {
     let mut text = String::new();
     let _ = file.rewind();
@@ -143,23 +156,56 @@ fn holder(file: &mut File) -> String {
     };
     match (field("pid "), field("started "), field("command ")) {
         (Some(pid), started, command) => {
-            let age = started
+            let started = started
                 .and_then(|s| s.parse::<u64>().ok())
-                .and_then(|s| {
-                    let now = SystemTime::now().duration_since(UNIX_EPOCH).ok()?.as_secs();
-                    Some(format!(", running for {} s", now.saturating_sub(s)))
+                .map(|s| {
+                    let now = SystemTime::now()
+                        .duration_since(UNIX_EPOCH)
+                        .map_or(s, |d| d.as_secs());
+                    format!(", started {}, {} s ago", utc(s), now.saturating_sub(s))
                 })
                 .unwrap_or_default();
             let command = command.map(|c| format!(" ({c})")).unwrap_or_default();
-            format!("process {pid}{command}{age}")
+            format!("process {pid}{command}{started}")
         }
-        _ => "work units of another process".to_string(),
+        _ if text == SHARED_TEXT => "work units of another process".to_string(),
+        // Between taking the lock and writing its name.
+        _ => "another process".to_string(),
     }
+}
+
+/// `YYYY-MM-DD hh:mm:ss UTC` of a Unix time (the proleptic Gregorian calendar, from the
+/// day count: March-based years make the leap day the year's last).
+fn utc(secs: u64) -> String {
+    let (days, rem) = (secs / 86_400, secs % 86_400);
+    let z = days as i64 + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z.rem_euclid(146_097);
+    let yoe = (doe - doe / 1_460 + doe / 36_524 - doe / 146_096) / 365;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let day = doy - (153 * mp + 2) / 5 + 1;
+    let month = if mp < 10 { mp + 3 } else { mp - 9 };
+    let year = yoe + era * 400 + i64::from(month <= 2);
+    format!(
+        "{year:04}-{month:02}-{day:02} {:02}:{:02}:{:02} UTC",
+        rem / 3_600,
+        rem % 3_600 / 60,
+        rem % 60
+    )
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn unix_times_read_as_utc_dates() {
+        // Values from `date -u -d @N`.
+        assert_eq!(utc(0), "1970-01-01 00:00:00 UTC");
+        assert_eq!(utc(951_782_400), "2000-02-29 00:00:00 UTC");
+        assert_eq!(utc(1_796_245_445), "2026-12-02 21:04:05 UTC");
+    }
 
     #[test]
     fn exclusive_refuses_a_second_holder_and_names_the_first() {

@@ -34,7 +34,8 @@ pub struct Stage {
     dir: PathBuf,
     config_hash: String,
     inputs: BTreeMap<String, String>,
-    lock: Arc<FolderLock>,
+    /// Held, not read: released when the last clone of the stage is dropped.
+    _lock: Arc<FolderLock>,
 }
 
 /// What a stage gives back: its output, and whether it was up to date.
@@ -93,12 +94,17 @@ impl Stage {
         let dir = dir.into();
         let config_hash = hash_config(config)?;
         let lock = Arc::new(FolderLock::acquire(&dir, mode)?);
+        // Held alone, the folder has no other writer: what killed runs left there goes
+        // now, whether or not this run rewrites anything.
+        if mode == LockMode::Exclusive {
+            remove_leftovers(&dir)?;
+        }
         Ok(Stage {
             name,
             dir,
             config_hash,
             inputs,
-            lock,
+            _lock: lock,
         })
     }
 
@@ -137,14 +143,9 @@ impl Stage {
     }
 
     /// Starts writing: creates the folder and removes the old record, so that from now
-    /// until [`Outputs::finish`] the folder does not claim to be complete. With the
-    /// folder held alone, what killed runs left there (temp files `.<name>.*tmp`, staging
-    /// folders `.<name>.partial-<pid>`) is removed first: their writers are gone.
+    /// until [`Outputs::finish`] the folder does not claim to be complete.
     pub fn begin(&self) -> Result<Outputs, StageError> {
         std::fs::create_dir_all(&self.dir).map_err(io_err(&self.dir))?;
-        if self.lock.mode() == LockMode::Exclusive {
-            remove_leftovers(&self.dir)?;
-        }
         let record = self.dir.join(RECORD_FILE);
         match std::fs::remove_file(&record) {
             Ok(()) => {}
@@ -193,8 +194,9 @@ impl Stage {
     }
 }
 
-/// Removes the temp files and staging folders of writers that are gone (the caller holds
-/// the folder alone). Only hidden names of those two shapes: nothing a user keeps.
+/// Removes what killed runs left in `dir`: temp files `.<name>.*tmp` and staging folders
+/// `.<name>.partial-<pid>`. Only called with the folder's exclusive lock held, so their
+/// writers are gone; only hidden names of those two shapes, nothing a user keeps.
 fn remove_leftovers(dir: &Path) -> Result<(), StageError> {
     for entry in std::fs::read_dir(dir).map_err(io_err(dir))? {
         let entry = entry.map_err(io_err(dir))?;

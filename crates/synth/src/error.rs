@@ -34,8 +34,8 @@ pub enum SynthError {
     Stage(#[from] stage::StageError),
     #[error(
         "{}: {count} file(s) that no record of this stage names (first: {}): the scene is \
-         rendered again into this folder; move them out, or replace them with \
-         `pl2map synth --overwrite`",
+         rendered again into this folder; move them out, remove the folder, or replace \
+         them with `pl2map synth --overwrite`",
         dir.display(),
         first.join(", ")
     )]

@@ -6,6 +6,7 @@
 //!   `lines.parquet`, `poses.parquet`) and the shard stage reads;
 //! - [`Split`] and [`LabelSource`], shared by every crate that names a split or a label
 //!   origin (the shards' protobuf schema maps onto them);
+//! - [`image_file`]: whether a frame's PNG or JPEG file is whole (not truncated);
 //! - [`parquet`]: the one parquet helper (atomic, deterministic writes; checked column
 //!   access whose errors name the file, column and row).
 //!
@@ -14,6 +15,7 @@
 //! files without depending on each other.
 
 pub mod frames;
+pub mod image_file;
 pub mod labels;
 pub mod parquet;
 

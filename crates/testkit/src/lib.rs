@@ -7,6 +7,7 @@
 //! - [`files`]: folder walkers and copies, for byte-identity checks.
 //! - [`images`]: seeded RGB and 16-bit depth images.
 //! - [`on_threads`]: runs a closure in a rayon pool of a given size.
+//! - [`process`]: child processes with a closed standard output.
 //! - Fixtures on workspace crates, each behind its feature: `layouts` (7-Scenes and
 //!   Cambridge dataset folders), `scene` (an analytic room with its frames table, COLMAP
 //!   model and LIMAP folder), `shard_frames` (seeded shard frames).
@@ -18,6 +19,7 @@ pub mod files;
 pub mod images;
 #[cfg(feature = "layouts")]
 pub mod layouts;
+pub mod process;
 pub mod python;
 pub mod sample;
 #[cfg(feature = "scene")]

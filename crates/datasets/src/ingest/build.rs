@@ -2,13 +2,13 @@
 //! table, in parallel and in frame order.
 
 use super::config::{DatasetKind, DepthOption, PoseOption};
-use super::error::{IngestError, Result};
+use super::error::{DamagedImagesError, IngestError, Result};
 use super::plan::{Plan, PlannedFrame, PoseSource};
-use super::{camera_spec, depth, sevenscenes};
+use super::{camera_spec, depth, sevenscenes, whole};
 use geometry::{Camera, CameraModel};
 use rayon::prelude::*;
 use std::collections::BTreeMap;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use tables::frames::{Frame, FramesTable, IngestMeta};
 
 pub(super) struct InputHashes {
@@ -92,7 +92,22 @@ pub(super) fn build(
         })
         .collect();
     bar.finish_and_clear();
-    // The first error in frame order: the same one for any thread count.
+    // Damaged images are reported together (a damaged download rarely has just one);
+    // otherwise the first error in frame order: the same one for any thread count.
+    let damaged: Vec<(PathBuf, String)> = results
+        .iter()
+        .filter_map(|r| match r {
+            Err(IngestError::DamagedImage { path, reason }) => Some((path.clone(), reason.clone())),
+            _ => None,
+        })
+        .collect();
+    if !damaged.is_empty() {
+        return Err(IngestError::DamagedImages(Box::new(DamagedImagesError {
+            scene_dir: plan.scene_dir.clone(),
+            total: plan.frames.len(),
+            damaged,
+        })));
+    }
     let frames = results.into_iter().collect::<Result<Vec<Frame>>>()?;
     Ok(FramesTable {
         frames,
@@ -107,10 +122,10 @@ fn build_frame(
     hash: &str,
     depth_out: Option<&Path>,
 ) -> Result<Frame> {
-    let (w, h) = image::image_dimensions(&pf.image).map_err(|source| IngestError::Image {
-        path: pf.image.clone(),
-        source,
-    })?;
+    let (w, h) = {
+        let image = whole::decode_whole(&pf.image)?;
+        (image.width(), image.height())
+    };
     let camera = match (&plan.camera, plan.kind) {
         (Some(c), _) => check_camera_size(c, &pf.image, w, h, "the given camera")?,
         (None, DatasetKind::SevenScenes) => {

@@ -61,11 +61,7 @@ pub fn register_depth(
 
 /// Reads a 16-bit single-channel PNG depth map.
 pub fn read_depth_png(path: &Path) -> Result<DepthImage> {
-    let img = image::open(path).map_err(|source| IngestError::Image {
-        path: path.to_path_buf(),
-        source,
-    })?;
-    match img {
+    match super::whole::decode_whole(path)? {
         DynamicImage::ImageLuma16(d) => Ok(d),
         other => Err(IngestError::ImageContent {
             path: path.to_path_buf(),
@@ -156,12 +152,10 @@ pub fn find_rendered(dir: &Path, kind: DatasetKind, name_stem: &str) -> Result<P
     }
 }
 
-/// Checks that a depth map has its colour image's size (reads the header only).
+/// Checks that a depth map is whole and has its colour image's size.
 pub fn check_depth_size(path: &Path, image_name: &str, w: u32, h: u32) -> Result<()> {
-    let (got_w, got_h) = image::image_dimensions(path).map_err(|source| IngestError::Image {
-        path: path.to_path_buf(),
-        source,
-    })?;
+    let depth = super::whole::decode_whole(path)?;
+    let (got_w, got_h) = (depth.width(), depth.height());
     if (got_w, got_h) != (w, h) {
         return Err(IngestError::DepthSize {
             path: path.to_path_buf(),

@@ -49,6 +49,13 @@ pub enum IngestError {
         #[source]
         source: image::ImageError,
     },
+    /// An image that is truncated or does not decode (one frame; ingest reports every
+    /// damaged frame of a scene together as [`IngestError::DamagedImages`]).
+    #[error("{path}: damaged image: {reason}")]
+    DamagedImage { path: PathBuf, reason: String },
+    /// Every damaged image of the scene.
+    #[error(transparent)]
+    DamagedImages(Box<DamagedImagesError>),
     /// An image or depth map whose size or pixel type is not the expected one.
     #[error("{path}: {message}")]
     ImageContent { path: PathBuf, message: String },
@@ -118,6 +125,30 @@ pub struct FrameCountError {
     /// What was counted, e.g. `frames of the sequences TrainSplit.txt / TestSplit.txt
     /// list`.
     pub counted: String,
+}
+
+/// The images of a scene that are truncated or do not decode, all of them.
+#[derive(Debug, Error)]
+#[error(
+    "{scene_dir}: {} of {total} images are damaged (truncated or corrupt); a partial \
+     download? Download them again:\n{}",
+    damaged.len(),
+    list_damaged(.damaged)
+)]
+pub struct DamagedImagesError {
+    pub scene_dir: PathBuf,
+    /// Frames of the scene (both splits).
+    pub total: usize,
+    /// Each damaged image with what is wrong, in frame order.
+    pub damaged: Vec<(PathBuf, String)>,
+}
+
+fn list_damaged(damaged: &[(PathBuf, String)]) -> String {
+    let lines: Vec<String> = damaged
+        .iter()
+        .map(|(p, why)| format!("  {}: {why}", p.display()))
+        .collect();
+    lines.join("\n")
 }
 
 pub type Result<T, E = IngestError> = std::result::Result<T, E>;

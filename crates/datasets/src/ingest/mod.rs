@@ -19,9 +19,10 @@ pub mod nvm;
 mod plan;
 pub mod sevenscenes;
 mod text;
+mod whole;
 
 pub use config::{DatasetKind, DepthOption, IngestConfig, PoseOption};
-pub use error::{FrameCountError, IngestError, Result};
+pub use error::{DamagedImagesError, FrameCountError, IngestError, Result};
 
 use stage::{Done, Stage};
 use std::path::{Path, PathBuf};
@@ -79,6 +80,7 @@ pub fn run(config: &IngestConfig, out_dir: &Path) -> Result<Done<IngestOutput>> 
             let depth_dir = out_dir.join(DEPTH_DIR);
             if let Some(r) = previous.filter(|r| r.stage == STAGE) {
                 let prefix = format!("{DEPTH_DIR}/");
+                let mut folders = std::collections::BTreeSet::new();
                 for rel in r.outputs.keys().filter(|k| k.starts_with(&prefix)) {
                     let p = out_dir.join(rel);
                     match std::fs::remove_file(&p) {
@@ -86,6 +88,17 @@ pub fn run(config: &IngestConfig, out_dir: &Path) -> Result<Done<IngestOutput>> 
                         Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
                         Err(e) => return Err(error::io_err(&p)(e)),
                     }
+                    folders.extend(
+                        p.ancestors()
+                            .skip(1)
+                            .take_while(|a| a.starts_with(&depth_dir))
+                            .map(Path::to_path_buf),
+                    );
+                }
+                // Folders left empty go too, deepest first; one holding a file the
+                // stage did not write stays (remove_dir refuses it).
+                for folder in folders.iter().rev() {
+                    let _ = std::fs::remove_dir(folder);
                 }
             }
             let table = build::build(&plan, &hashes, Some(&depth_dir))?;

@@ -67,7 +67,12 @@ fn canonical_dir(path: &Path, what: &str) -> Result<PathBuf> {
             what: what.to_string(),
         });
     }
-    std::fs::canonicalize(path).map_err(io_err(path))
+    let dir = std::fs::canonicalize(path).map_err(io_err(path))?;
+    // The frames table and the stage record hold paths as text.
+    if dir.to_str().is_none() {
+        return Err(stage::StageError::Path { path: dir }.into());
+    }
+    Ok(dir)
 }
 
 fn rel_name(base: &Path, path: &Path) -> String {

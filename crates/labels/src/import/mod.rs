@@ -148,7 +148,8 @@ impl ImportConfig {
 
 #[derive(Debug, Error)]
 pub enum ImportError {
-    #[error("COLMAP model {}: {source}", dir.display())]
+    /// The COLMAP crate's errors name the model's file (and line) already.
+    #[error("COLMAP model: {source}")]
     Colmap {
         dir: PathBuf,
         #[source]

@@ -31,6 +31,10 @@ pub(super) enum SourceError {
     },
     #[error("{}: not a PNG or JPEG file", path.display())]
     Format { path: PathBuf },
+    /// Ingest checked every image; this one was damaged afterwards (or ingested by a
+    /// version without the check).
+    #[error("{}: {reason}; ingest the dataset again from a whole copy", path.display())]
+    Damaged { path: PathBuf, reason: String },
     #[error("frame {0} is not in the plan's tables")]
     Unknown(u64),
 }
@@ -113,6 +117,12 @@ impl Source<'_> {
         }
         rec.image_format = ImageFormat::sniff(&bytes).ok_or_else(|| SourceError::Format {
             path: f.path.clone(),
+        })?;
+        // A shard never holds a frame that cannot be decoded: the structure is walked to
+        // its end (cheap next to compression); ingest decoded the pixels.
+        tables::image_file::check_complete(&bytes).map_err(|reason| SourceError::Damaged {
+            path: f.path.clone(),
+            reason,
         })?;
         rec.image_bytes = bytes;
         Ok(rec)

@@ -1,0 +1,388 @@
+//! The `pl2map` binary as a nightly job meets it: output piped into a reader that goes
+//! away, two runs started on one work folder, files of the user's inside stage folders,
+//! a run killed in the middle. Each test runs real processes on the tiny synthetic
+//! pipeline (pipeline/synthetic-tiny.toml, trained for a few steps only).
+
+use std::io::Read as _;
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Output, Stdio};
+use std::time::{Duration, Instant};
+use testkit::process::closed_stdout;
+
+fn bin() -> Command {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_pl2map"));
+    c.env("RUST_BACKTRACE", "0");
+    c
+}
+
+fn repo() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+/// The tiny synthetic pipeline with its work folder in `dir`, 4 training steps and a
+/// RANSAC cap that keeps the weak model's score quick. Returns the file's path.
+fn tiny_pipeline(dir: &Path, synth_seed: u64) -> PathBuf {
+    let text = std::fs::read_to_string(repo().join("pipeline/synthetic-tiny.toml")).unwrap();
+    let mut out = String::new();
+    for line in text.lines() {
+        let line = match line {
+            l if l.starts_with("work = ") => format!("work = {:?}", dir.join("work")),
+            "iterations = 100" => "iterations = 4".into(),
+            "checkpoint_every = 50" => "checkpoint_every = 2".into(),
+            l => l.to_string(),
+        };
+        out.push_str(&line);
+        out.push('\n');
+        if line == "[score]" {
+            out.push_str("max_iterations = 200\n");
+        }
+        if line == "[synth]" {
+            out.push_str(&format!("seed = {synth_seed}\n"));
+        }
+    }
+    // The template's own seed line under [synth] is replaced by the one added above.
+    let out = out.replacen("seed = 0\nlabel_noise_cm", "label_noise_cm", 1);
+    let path = dir.join("pipeline.toml");
+    std::fs::write(&path, out).unwrap();
+    path
+}
+
+fn run(pipeline: &Path, extra: &[&str]) -> Output {
+    bin()
+        .arg("run")
+        .arg(pipeline)
+        .arg("--quiet")
+        .args(extra)
+        .output()
+        .unwrap()
+}
+
+fn text(bytes: &[u8]) -> String {
+    String::from_utf8_lossy(bytes).into_owned()
+}
+
+fn assert_ok(out: &Output, what: &str) {
+    assert!(
+        out.status.success(),
+        "{what}: {}\nstdout:\n{}\nstderr:\n{}",
+        out.status,
+        text(&out.stdout),
+        text(&out.stderr)
+    );
+}
+
+/// Each stage folder's recorded outputs (name -> sha256), from its stage.json.
+fn recorded_outputs(work: &Path) -> Vec<(String, Vec<(String, String)>)> {
+    [
+        "synth", "ingest", "import", "refine", "shard", "train", "score",
+    ]
+    .iter()
+    .map(|stage| {
+        let record = work.join(stage).join("stage.json");
+        let json: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(&record).unwrap()).unwrap();
+        let outputs: Vec<(String, String)> = json["outputs"]
+            .as_object()
+            .unwrap()
+            .iter()
+            // metrics.csv is compared without its timing columns
+            // (metrics_without_times); per_frame.parquet holds each frame's time
+            // too, its poses are in the results files compared here.
+            .filter(|(k, _)| *k != "metrics.csv" && *k != "per_frame.parquet")
+            .map(|(k, v)| (k.clone(), v.as_str().unwrap().to_string()))
+            .collect();
+        (stage.to_string(), outputs)
+    })
+    .collect()
+}
+
+/// train/metrics.csv without the `seconds` and `data_seconds` columns (wall time).
+fn metrics_without_times(work: &Path) -> Vec<String> {
+    let text = std::fs::read_to_string(work.join("train/metrics.csv")).unwrap();
+    let header: Vec<&str> = text.lines().next().unwrap().split(',').collect();
+    let keep: Vec<usize> = (0..header.len())
+        .filter(|&i| !header[i].ends_with("seconds"))
+        .collect();
+    assert!(keep.len() + 2 == header.len(), "{header:?}");
+    text.lines()
+        .map(|l| {
+            let cells: Vec<&str> = l.split(',').collect();
+            let kept: Vec<&str> = keep.iter().map(|&i| cells[i]).collect();
+            kept.join(",")
+        })
+        .collect()
+}
+
+fn wait_for(what: &str, mut done: impl FnMut() -> bool) {
+    let start = Instant::now();
+    while !done() {
+        assert!(
+            start.elapsed() < Duration::from_secs(300),
+            "waited 300 s for {what}"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+fn finish(mut child: Child, what: &str) -> Output {
+    let status = child.wait().unwrap();
+    let mut stdout = Vec::new();
+    let mut stderr = Vec::new();
+    if let Some(mut s) = child.stdout.take() {
+        s.read_to_end(&mut stdout).unwrap();
+    }
+    if let Some(mut s) = child.stderr.take() {
+        s.read_to_end(&mut stderr).unwrap();
+    }
+    let out = Output {
+        status,
+        stdout,
+        stderr,
+    };
+    assert_ok(&out, what);
+    out
+}
+
+#[test]
+fn a_closed_stdout_is_a_quiet_exit_and_the_work_is_done() {
+    // A pipeline whose reader went away still does all its work.
+    let dir = tempfile::tempdir().unwrap();
+    let pipeline = tiny_pipeline(dir.path(), 0);
+    let out = bin()
+        .arg("run")
+        .arg(&pipeline)
+        .args(["--until", "shard"])
+        .stdout(closed_stdout())
+        .stderr(Stdio::piped())
+        .output()
+        .unwrap();
+    let stderr = text(&out.stderr);
+    assert!(out.status.success(), "run: {} {stderr}", out.status);
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert!(dir.path().join("work/shard/stage.json").is_file());
+
+    // The info commands on the scene's COLMAP model and LIMAP folder.
+    let gt = dir.path().join("work/synth/synthroom/sfm_gt");
+    for (kind, folder) in [("colmap", "colmap"), ("limap", "limap")] {
+        let out = bin()
+            .args([kind, "info"])
+            .arg(gt.join(folder))
+            .stdout(closed_stdout())
+            .stderr(Stdio::piped())
+            .output()
+            .unwrap();
+        let stderr = text(&out.stderr);
+        assert!(out.status.success(), "{kind} info: {} {stderr}", out.status);
+        assert!(!stderr.contains("Broken pipe"), "{stderr}");
+    }
+}
+
+#[test]
+fn a_second_run_on_the_folder_refuses_or_waits_and_the_outputs_are_one_runs() {
+    let dir = tempfile::tempdir().unwrap();
+    let pipeline = tiny_pipeline(dir.path(), 0);
+    let work = dir.path().join("work");
+    let first = bin()
+        .arg("run")
+        .arg(&pipeline)
+        .arg("--quiet")
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let pid = first.id();
+    // The holder writes its pid into the work folder's lock file once it holds it.
+    let lock = work.join(".pl2map.lock");
+    wait_for("the first run's lock", || {
+        std::fs::read_to_string(&lock).is_ok_and(|t| t.contains(&format!("pid {pid}")))
+    });
+
+    let refused = run(&pipeline, &[]);
+    let stderr = text(&refused.stderr);
+    assert!(
+        !refused.status.success(),
+        "the second run was not refused: {stderr}"
+    );
+    assert!(stderr.contains(&format!("process {pid}")), "{stderr}");
+    assert!(
+        stderr.contains("started") && stderr.contains("--wait"),
+        "{stderr}"
+    );
+
+    let waiting = bin()
+        .arg("run")
+        .arg(&pipeline)
+        .args(["--quiet", "--wait"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    finish(first, "the first run");
+    let waited = finish(waiting, "the waiting run");
+    let table = text(&waited.stdout);
+    for stage in [
+        "synth", "ingest", "import", "refine", "shard", "train", "score",
+    ] {
+        let row = table
+            .lines()
+            .find(|l| l.starts_with(stage))
+            .unwrap_or_else(|| panic!("no {stage} row in\n{table}"));
+        assert!(row.contains("up to date"), "{row}");
+    }
+
+    // The same outputs as one run alone in the same place (the frames table holds
+    // absolute paths).
+    let ours = recorded_outputs(&work);
+    let our_metrics = metrics_without_times(&work);
+    std::fs::remove_dir_all(&work).unwrap();
+    assert_ok(&run(&pipeline, &[]), "the run alone");
+    let one = recorded_outputs(&work);
+    assert_eq!(our_metrics, metrics_without_times(&work));
+    for ((stage, a), (_, b)) in ours.iter().zip(&one) {
+        let differ: Vec<&String> = a
+            .iter()
+            .zip(b)
+            .filter(|(x, y)| x != y)
+            .map(|(x, _)| &x.0)
+            .collect();
+        assert!(
+            a.len() == b.len() && differ.is_empty(),
+            "{stage}: {differ:?}"
+        );
+    }
+}
+
+#[test]
+fn files_the_stages_did_not_write_are_left_or_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let work = dir.path().join("work");
+    assert_ok(&run(&tiny_pipeline(dir.path(), 0), &[]), "first run");
+    let folders = [
+        "", "synth", "ingest", "import", "refine", "shard", "train", "score",
+    ];
+    for f in folders {
+        std::fs::write(work.join(f).join("notes.txt"), format!("mine: {f}")).unwrap();
+    }
+    let in_scene = work.join("synth/synthroom/notes.txt");
+    std::fs::write(&in_scene, "mine: scene").unwrap();
+
+    // Another seed: every stage runs again. The scene folder is rendered anew, so a
+    // file of the user's in it is refused by name rather than deleted.
+    let reseeded = tiny_pipeline(dir.path(), 1);
+    let out = run(&reseeded, &[]);
+    let stderr = text(&out.stderr);
+    assert!(!out.status.success(), "{stderr}");
+    assert!(stderr.contains("synthroom/notes.txt"), "{stderr}");
+    assert_eq!(std::fs::read_to_string(&in_scene).unwrap(), "mine: scene");
+
+    std::fs::rename(&in_scene, dir.path().join("kept.txt")).unwrap();
+    let out = run(&reseeded, &[]);
+    assert_ok(&out, "the reseeded run");
+    let table = text(&out.stdout);
+    assert!(
+        table.lines().filter(|l| l.contains(" ran ")).count() == 7,
+        "{table}"
+    );
+    for f in folders {
+        let kept = std::fs::read_to_string(work.join(f).join("notes.txt")).unwrap();
+        assert_eq!(kept, format!("mine: {f}"));
+    }
+
+    // A model the train folder's record does not account for is named, not deleted.
+    std::fs::remove_file(work.join("train/stage.json")).unwrap();
+    let model = std::fs::read(work.join("train/model.ckpt")).unwrap();
+    let out = run(&reseeded, &[]);
+    let stderr = text(&out.stderr);
+    assert!(!out.status.success(), "{stderr}");
+    assert!(stderr.contains(".ckpt"), "{stderr}");
+    assert_eq!(std::fs::read(work.join("train/model.ckpt")).unwrap(), model);
+}
+
+#[test]
+fn a_killed_run_leaves_nothing_the_next_run_keeps() {
+    let dir = tempfile::tempdir().unwrap();
+    let pipeline = tiny_pipeline(dir.path(), 0);
+    let synth = dir.path().join("work/synth");
+    let staging = |synth: &Path| -> Vec<PathBuf> {
+        std::fs::read_dir(synth)
+            .map(|d| {
+                d.map(|e| e.unwrap().path())
+                    .filter(|p| p.to_string_lossy().contains(".synthroom.partial-"))
+                    .collect()
+            })
+            .unwrap_or_default()
+    };
+    let mut child = bin()
+        .arg("run")
+        .arg(&pipeline)
+        .args(["--quiet", "--until", "synth"])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    wait_for("the synth stage's staging folder", || {
+        staging(&synth)
+            .iter()
+            .any(|p| std::fs::read_dir(p).is_ok_and(|mut d| d.next().is_some()))
+    });
+    child.kill().unwrap(); // SIGKILL: nothing of the process runs after it.
+    child.wait().unwrap();
+    assert!(!staging(&synth).is_empty());
+    // A temp file a full disk left in another stage folder.
+    let ingest = dir.path().join("work/ingest");
+    std::fs::create_dir_all(&ingest).unwrap();
+    let temp = ingest.join(".frames.parquet.x1y2.tmp");
+    std::fs::write(&temp, b"half a table").unwrap();
+
+    // No stale lock: the next run starts at once, and removes the leftovers.
+    assert_ok(
+        &run(&pipeline, &["--until", "ingest"]),
+        "the run after the kill",
+    );
+    assert!(staging(&synth).is_empty(), "{:?}", staging(&synth));
+    assert!(!temp.exists());
+    assert!(synth.join("stage.json").is_file());
+}
+
+#[test]
+fn an_unreadable_record_counts_as_none_in_every_stage() {
+    let dir = tempfile::tempdir().unwrap();
+    let pipeline = tiny_pipeline(dir.path(), 0);
+    let work = dir.path().join("work");
+    assert_ok(&run(&pipeline, &["--until", "shard"]), "first run");
+    for stage in ["ingest", "import", "refine", "shard"] {
+        std::fs::write(work.join(stage).join("stage.json"), b"{ garbage").unwrap();
+    }
+    let out = run(&pipeline, &["--until", "shard"]);
+    assert_ok(&out, "the run over unreadable records");
+    let table = text(&out.stdout);
+    for stage in ["ingest", "import", "refine", "shard"] {
+        let row = table.lines().find(|l| l.starts_with(stage)).unwrap();
+        assert!(row.contains(" ran "), "{row}");
+    }
+    // Without a record the synth stage cannot tell its scene from files of the user's
+    // in the scene folder: it names them instead of deleting them.
+    std::fs::write(work.join("synth/stage.json"), b"{ garbage").unwrap();
+    let out = run(&pipeline, &["--until", "synth"]);
+    let stderr = text(&out.stderr);
+    assert!(!out.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("synthroom") && stderr.contains("TestSplit.txt"),
+        "{stderr}"
+    );
+}
+
+#[test]
+fn a_warm_start_from_a_missing_file_is_refused_before_any_stage() {
+    let dir = tempfile::tempdir().unwrap();
+    let pipeline = tiny_pipeline(dir.path(), 0);
+    let missing = dir.path().join("nonexistent.ckpt");
+    let out = run(&pipeline, &["--warm-start", missing.to_str().unwrap()]);
+    let stderr = text(&out.stderr);
+    assert!(!out.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("nonexistent.ckpt: no such file"),
+        "{stderr}"
+    );
+    assert!(!dir.path().join("work/synth").exists(), "a stage ran");
+}
