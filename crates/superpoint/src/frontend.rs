@@ -74,7 +74,7 @@ impl SuperPointFrontEnd {
             });
         }
         let mut config = config.clone();
-        config.superpoint.weights = Some(path);
+        config.superpoint.weights = Some(std::path::absolute(&path).unwrap_or(path));
         Self::from_weights(config, &weights)
     }
 
