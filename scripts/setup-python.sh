@@ -5,7 +5,10 @@
 # it skip with a reason.
 set -uo pipefail
 venv="${PL2MAP_VENV:-$HOME/.cache/pl2map-rs/venv}"
-want="pycolmap==4.2.1 poselib==2.0.5 mcap==1.6.0 mcap-protobuf-support==0.6.0 protobuf numpy"
+# torch (the SuperPoint peer, crates/superpoint/tests), opencv-python-headless (its
+# resize) and h5py (reads `pl2map features` files). PyPI's torch wheel; the CPU build
+# from download.pytorch.org is smaller where that index is reachable.
+want="pycolmap==4.2.1 poselib==2.0.5 mcap==1.6.0 mcap-protobuf-support==0.6.0 protobuf numpy torch==2.9.1 opencv-python-headless==5.1.0.95 h5py==3.16.0"
 stamp="$venv/.pl2map-requirements"
 if [ -x "$venv/bin/python" ] && [ "$(cat "$stamp" 2>/dev/null)" = "$want" ]; then
   echo "$venv/bin/python"

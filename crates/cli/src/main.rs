@@ -52,6 +52,8 @@ enum Command {
     Lock(commands::verify::LockArgs),
     /// Rebuild a lock file's training set and compare every hash.
     Verify(commands::verify::VerifyArgs),
+    /// Keypoints and descriptors of images (SIFT or SuperPoint) in hloc's HDF5 layout.
+    Features(commands::features::Args),
     /// Absolute pose from 2D-3D point (and line) correspondences.
     Pose(commands::pose::Args),
     /// Benchmarks that print a table (never run as tests).
@@ -86,6 +88,7 @@ fn main() -> std::process::ExitCode {
         Command::Run(a) => commands::run::run(a, cli.quiet),
         Command::Lock(a) => commands::verify::lock(a, cli.quiet),
         Command::Verify(a) => commands::verify::verify(a, cli.quiet),
+        Command::Features(a) => commands::features::run(a),
         Command::Pose(a) => commands::pose::run(a),
         Command::Bench(c) => commands::bench::run(c),
     };

@@ -1,4 +1,5 @@
 use crate::error::FeatureError;
+use crate::frontend::{FrontEndKind, SuperPointConfig};
 use serde::{Deserialize, Serialize};
 
 /// SIFT detection (OpenCV's parameters) and the top-K cut.
@@ -69,6 +70,14 @@ impl Default for LsdConfig {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct FrontEndConfig {
+    /// Which front-end (`sift`, the default, or `superpoint`). Left out of the
+    /// serialised form when `sift`, so configurations (and the stage records and
+    /// checkpoints holding them) of SIFT runs keep their bytes.
+    #[serde(skip_serializing_if = "FrontEndKind::is_sift")]
+    pub kind: FrontEndKind,
+    /// SuperPoint's settings (used when `kind = "superpoint"`).
+    #[serde(skip_serializing_if = "SuperPointConfig::is_default")]
+    pub superpoint: SuperPointConfig,
     pub sift: SiftConfig,
     pub descriptor: DescriptorConfig,
     pub lsd: LsdConfig,
@@ -79,6 +88,8 @@ pub struct FrontEndConfig {
 impl Default for FrontEndConfig {
     fn default() -> Self {
         FrontEndConfig {
+            kind: FrontEndKind::Sift,
+            superpoint: SuperPointConfig::default(),
             sift: SiftConfig::default(),
             descriptor: DescriptorConfig::default(),
             lsd: LsdConfig::default(),
@@ -95,8 +106,28 @@ impl FrontEndConfig {
         c
     }
 
+    /// The descriptor width of the configured kind.
+    pub fn dim(&self) -> usize {
+        self.kind.dim()
+    }
+
+    /// Sets the query's top-K of the configured kind.
+    pub fn set_max_keypoints(&mut self, k: usize) {
+        match self.kind {
+            FrontEndKind::Sift => self.sift.max_keypoints = k,
+            FrontEndKind::Superpoint => self.superpoint.max_keypoints = k,
+        }
+    }
+
     pub fn validate(&self) -> Result<(), FeatureError> {
         let bad = |m: &str| Err(FeatureError::Config(m.to_string()));
+        let sp = &self.superpoint;
+        if !(sp.detection_threshold >= 0.0 && sp.detection_threshold < 1.0) {
+            return bad("superpoint.detection_threshold must be in [0, 1)");
+        }
+        if sp.resize_max != 0 && sp.resize_max < 16 {
+            return bad("superpoint.resize_max must be 0 (off) or at least 16");
+        }
         if self.samples_per_line < 2 {
             return bad("samples_per_line must be >= 2 (both endpoints)");
         }

@@ -21,6 +21,9 @@ pub enum FeatureError {
     DescriptorCount { expected: usize, got: usize },
     #[error("invalid front-end configuration: {0}")]
     Config(String),
+    /// A front-end outside this crate (SuperPoint's network) failed.
+    #[error("{0}")]
+    FrontEnd(String),
 }
 
 pub(crate) trait CvContext<T> {

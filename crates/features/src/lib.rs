@@ -8,6 +8,10 @@
 //! - T points sampled along each segment (endpoints included) with a descriptor at each,
 //!   oriented along the segment.
 //!
+//! The [`FrontEnd`] trait (`frontend.rs`) is the one interface the trainer, the
+//! predictor and `pl2map features` use; [`SiftFrontEnd`] implements it with the above,
+//! and the `superpoint` crate adds the SuperPoint kind.
+//!
 //! Every coordinate this crate returns or takes follows COLMAP's convention (centre of
 //! the top-left pixel at (0.5, 0.5)); OpenCV's integer-centre coordinates are converted
 //! here, once, in `convert`.
@@ -16,8 +20,10 @@ mod config;
 mod convert;
 mod error;
 mod extract;
+mod frontend;
 mod lines;
 mod lsd;
+mod resize;
 mod sift;
 
 pub mod bench;
@@ -26,8 +32,13 @@ pub use config::{DescriptorConfig, FrontEndConfig, LsdConfig, SiftConfig};
 pub use convert::{gray_from_rgb, load_gray};
 pub use error::FeatureError;
 pub use extract::{ImageFeatures, extract, extract_batch};
+pub use frontend::{
+    Described, Detections, FrontEnd, FrontEndKind, SUPERPOINT_DIM, SUPERPOINT_WEIGHTS_ENV,
+    SiftFrontEnd, SuperPointConfig,
+};
 pub use lines::{describe_lines, sample_points};
 pub use lsd::detect_segments;
+pub use resize::{gray_f32, resize_area};
 pub use sift::{Keypoint, describe_points, detect_keypoints};
 
 /// SIFT descriptor dimension.

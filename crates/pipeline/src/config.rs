@@ -52,6 +52,22 @@ pub struct PipelineFile {
     /// How `pl2map run --warm-start CKPT` continues training (defaults without it).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub warm_start: Option<WarmStartSection>,
+    /// The front-end of `[train]` (and, through its checkpoint, of `[score]`). Absent:
+    /// `[train]`'s own `front_end` (SIFT by default).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub features: Option<FeaturesSection>,
+}
+
+/// `[features]`: which front-end describes the training images and the queries.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct FeaturesSection {
+    /// `sift` or `superpoint`; the network's descriptor width follows it (128 / 256).
+    pub kind: features::FrontEndKind,
+    /// The SuperPoint weights file (`superpoint_v1.pth`, supplied by the user; README.md,
+    /// "SuperPoint weights"), relative to this file; absent: `PL2MAP_SUPERPOINT_WEIGHTS`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub superpoint_weights: Option<String>,
 }
 
 /// Nightly retraining: with `--warm-start CKPT` the train stage starts from that model's
@@ -242,6 +258,20 @@ impl Pipeline {
                 }
                 import.model = Some(need(["import", "model"], &import.model)?);
                 import.limap = Some(need(["import", "limap"], &import.limap)?);
+            }
+        }
+        let mut file = file;
+        if let Some(f) = file.features.clone() {
+            let Some(t) = file.train.as_mut() else {
+                return Err(
+                    r.config("[features] chooses the front-end of [train]: add [train]".into())
+                );
+            };
+            t.front_end.kind = f.kind;
+            t.model.descriptor_dim = f.kind.dim();
+            if let Some(w) = &f.superpoint_weights {
+                t.front_end.superpoint.weights =
+                    Some(r.path(&["features", "superpoint_weights"], w)?);
             }
         }
         if file.score.is_some() && file.train.is_none() {
@@ -480,6 +510,28 @@ mod tests {
     fn resolve(text: &str) -> Result<Pipeline> {
         let f = parse::<PipelineFile>(text, Path::new("/p/x.toml"))?;
         Pipeline::resolve(f, text, Path::new("/p/x.toml"), Path::new("/p"), None, &[])
+    }
+
+    #[test]
+    fn features_section_sets_the_train_front_end_and_width() {
+        let text = "work = \"w\"\n[synth]\ntiny = true\n[train]\n[features]\n\
+                    kind = \"superpoint\"\nsuperpoint_weights = \"weights/sp.pth\"\n";
+        let p = resolve(text).unwrap();
+        let t = p.file.train.as_ref().unwrap();
+        assert_eq!(t.front_end.kind, features::FrontEndKind::Superpoint);
+        assert_eq!(t.model.descriptor_dim, 256);
+        assert_eq!(
+            t.front_end.superpoint.weights,
+            Some(PathBuf::from("/p/weights/sp.pth"))
+        );
+        let e = resolve("work = \"w\"\n[synth]\n[features]\nkind = \"superpoint\"\n")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("add [train]"), "{e}");
+        let e = resolve("work = \"w\"\n[synth]\n[train]\n[features]\nkind = \"surf\"\n")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("x.toml") && e.contains("surf"), "{e}");
     }
 
     #[test]

@@ -86,7 +86,7 @@ struct FrontEnd {
     front_end_ms: f64,
 }
 
-fn front_end(fe: &features::FrontEndConfig, frame: &TestFrame) -> Result<FrontEnd, ScoreError> {
+fn front_end(fe: &dyn features::FrontEnd, frame: &TestFrame) -> Result<FrontEnd, ScoreError> {
     let t = Instant::now();
     let gray = frame.gray_image()?;
     let decode_ms = ms_since(t);
@@ -105,7 +105,8 @@ fn front_end(fe: &features::FrontEndConfig, frame: &TestFrame) -> Result<FrontEn
     }
     // Front-end and network timed apart: `Predictor::predict` is exactly these two.
     let t = Instant::now();
-    let features = features::extract(&gray, fe)
+    let features = fe
+        .extract(&gray)
         .map_err(|e| NetworkLocaliser::frame_err(frame, format!("front-end: {e}")))?;
     Ok(FrontEnd {
         features,
@@ -207,7 +208,7 @@ mod tests {
     fn localiser() -> NetworkLocaliser {
         let c = train::TrainConfig::tiny();
         let net = c.model.init::<CpuBackend>(4, &Default::default()).unwrap();
-        NetworkLocaliser::from_predictor(Predictor::from_parts(net, c), "tiny")
+        NetworkLocaliser::from_predictor(Predictor::from_parts(net, c).unwrap(), "tiny")
     }
 
     #[test]

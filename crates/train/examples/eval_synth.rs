@@ -41,7 +41,7 @@ fn predict_chunked(
     gray: &image::GrayImage,
     chunk: usize,
 ) -> Result<ImagePrediction, Box<dyn std::error::Error>> {
-    let f = features::extract(gray, predictor.front_end())?;
+    let f = predictor.front_end().extract(gray)?;
     let n = f.num_keypoints();
     let groups = n.div_ceil(chunk.max(1)).max(1);
     let max_lines = predictor.config().limits.max_lines;

@@ -18,7 +18,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let (dir, root) = (Path::new(&a[2]), Path::new(&a[3]));
     let test_frames: usize = a.get(4).map(|s| s.parse()).transpose()?.unwrap_or(8);
     let per_frame: usize = a.get(5).map(|s| s.parse()).transpose()?.unwrap_or(400);
-    let fe = predictor.front_end().clone();
+    let fe = predictor.front_end();
     let manifest = Manifest::load(dir.join("manifest.json"))?;
     let files = |p: &str| -> Vec<PathBuf> {
         manifest
@@ -37,7 +37,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             .filter(|&i| f.point_valid[i])
             .map(|i| f.keypoints[i])
             .collect();
-        let d = features::describe_points(&gray, &pos, &fe.sift, &fe.descriptor)?;
+        let d = fe.describe_points(&gray, &pos)?;
         descs.extend_from_slice(&d);
         for i in (0..f.keypoints.len()).filter(|&i| f.point_valid[i]) {
             xyz.push(f.points3d[i]);
@@ -67,7 +67,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     for f in frames.iter().step_by(step).take(test_frames) {
         assert_eq!(f.split, Split::Test);
         let gray = image::load_from_memory(&f.image_bytes)?.to_luma8();
-        let feats = features::extract(&gray, &fe)?;
+        let feats = fe.extract(&gray)?;
         let inv = f.pose.inverse();
         let depth = load_depth(root, &f.name)?;
         for (k, xy) in feats.keypoints.iter().enumerate().take(per_frame) {

@@ -28,7 +28,8 @@ pub enum LrSchedule {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, clap::Args)]
 #[serde(default, deny_unknown_fields)]
 pub struct TrainConfig {
-    /// The network (D must be the front-end's descriptor size, 128 for SIFT).
+    /// The network (D must be the front-end's descriptor size: 128 for SIFT, 256 for
+    /// SuperPoint).
     #[arg(skip = TrainConfig::default().model)]
     pub model: ModelConfig,
     #[arg(skip = TrainConfig::default().loss)]
@@ -37,7 +38,7 @@ pub struct TrainConfig {
     /// of the predictor (stored in every checkpoint so both sides agree).
     #[arg(skip = TrainConfig::default().front_end)]
     pub front_end: FrontEndConfig,
-    /// Keypoints the predictor keeps per query image (top-K by SIFT response).
+    /// Keypoints the predictor keeps per query image (top-K by the detector's score).
     #[arg(long, default_value_t = TrainConfig::default().query_max_keypoints)]
     pub query_max_keypoints: usize,
     /// One iteration = one Adam step on `batch_frames` images.
@@ -162,11 +163,12 @@ impl TrainConfig {
         self.model.validate()?;
         self.loss.validate()?;
         self.front_end.validate()?;
-        if self.model.descriptor_dim != features::SIFT_DIM {
+        if self.model.descriptor_dim != self.front_end.dim() {
             return bad(format!(
-                "model.descriptor_dim is {} but the front-end's SIFT descriptors have {}",
+                "model.descriptor_dim is {} but the {} front-end's descriptors have {}",
                 self.model.descriptor_dim,
-                features::SIFT_DIM
+                self.front_end.kind,
+                self.front_end.dim()
             ));
         }
         if self.model.line_tokens != self.front_end.samples_per_line {

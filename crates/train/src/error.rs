@@ -21,6 +21,8 @@ pub enum TrainError {
     },
     #[error("front-end: {0}")]
     Features(#[from] features::FeatureError),
+    #[error("front-end: {0}")]
+    SuperPoint(#[from] superpoint::SuperPointError),
     #[error("model: {0}")]
     Model(#[from] model::ModelError),
     #[error("checkpoint {path}: {reason}")]

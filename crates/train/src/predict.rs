@@ -22,11 +22,12 @@
 use crate::checkpoint::CheckpointFile;
 use crate::config::TrainConfig;
 use crate::error::TrainError;
-use features::{FrontEndConfig, ImageFeatures};
+use features::{FrontEnd, ImageFeatures};
 use geometry::Camera;
 use image::GrayImage;
 use model::{CpuBackend, Pl2Map};
 use std::path::Path;
+use std::sync::Arc;
 
 /// A keypoint and what the network says about it.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -54,7 +55,7 @@ pub struct ImagePrediction {
 pub struct Predictor {
     network: Pl2Map<CpuBackend>,
     config: TrainConfig,
-    front_end: FrontEndConfig,
+    front_end: Arc<dyn FrontEnd>,
     /// Added to every predicted coordinate (the training's `scene_centre`).
     centre: [f64; 3],
 }
@@ -63,22 +64,25 @@ impl Predictor {
     pub fn load(checkpoint: &Path) -> Result<Self, TrainError> {
         let ck = CheckpointFile::read(checkpoint)?;
         let network = ck.model::<CpuBackend>(&Default::default())?;
-        let mut p = Self::from_parts(network, ck.header.config);
+        let mut p = Self::from_parts(network, ck.header.config)?;
         p.centre = ck.header.scene_centre;
         Ok(p)
     }
 
     /// A predictor over an in-memory network and its training configuration (network
-    /// coordinates = world coordinates).
-    pub fn from_parts(network: Pl2Map<CpuBackend>, config: TrainConfig) -> Self {
-        let mut front_end = config.front_end.clone();
-        front_end.sift.max_keypoints = config.query_max_keypoints;
-        Predictor {
+    /// coordinates = world coordinates). The front-end is built from the configuration
+    /// ([`query_front_end`]).
+    pub fn from_parts(
+        network: Pl2Map<CpuBackend>,
+        config: TrainConfig,
+    ) -> Result<Self, TrainError> {
+        let front_end = query_front_end(&config)?;
+        Ok(Predictor {
             network,
             config,
             front_end,
             centre: [0.0; 3],
-        }
+        })
     }
 
     /// Origin of the network's coordinates in the world (from the checkpoint).
@@ -91,8 +95,8 @@ impl Predictor {
     }
 
     /// The front-end of the query path (training's, with the query's top-K).
-    pub fn front_end(&self) -> &FrontEndConfig {
-        &self.front_end
+    pub fn front_end(&self) -> &dyn FrontEnd {
+        self.front_end.as_ref()
     }
 
     /// Detects, describes and predicts one grey image.
@@ -110,7 +114,7 @@ impl Predictor {
                 camera.height
             )));
         }
-        let f = features::extract(image, &self.front_end)?;
+        let f = self.front_end.extract(image)?;
         self.predict_features(&f)
     }
 
@@ -123,19 +127,14 @@ impl Predictor {
         segments: &[[f64; 4]],
     ) -> Result<ImagePrediction, TrainError> {
         let fe = &self.front_end;
+        let (descriptors, line_descriptors) = fe.describe(image, keypoints, segments)?;
         let f = ImageFeatures {
             keypoints: keypoints.to_vec(),
-            descriptors: features::describe_points(image, keypoints, &fe.sift, &fe.descriptor)?,
+            descriptors,
             segments: segments.to_vec(),
-            line_descriptors: features::describe_lines(
-                image,
-                segments,
-                fe.samples_per_line,
-                &fe.sift,
-                &fe.descriptor,
-            )?,
-            samples_per_line: fe.samples_per_line,
-            dim: features::SIFT_DIM,
+            line_descriptors,
+            samples_per_line: fe.samples_per_line(),
+            dim: fe.dim(),
         };
         self.predict_features(&f)
     }
@@ -171,6 +170,23 @@ impl Predictor {
     }
 }
 
+/// The query path's front-end of a training configuration: the checkpoint's front-end
+/// with the query's top-K. A SuperPoint front-end reads the weights file the checkpoint
+/// names, or `PL2MAP_SUPERPOINT_WEIGHTS` when that file is not there (another machine),
+/// and refuses a file whose sha256 is not the recorded one.
+pub fn query_front_end(config: &TrainConfig) -> Result<Arc<dyn FrontEnd>, TrainError> {
+    let mut fe = config.front_end.clone();
+    fe.set_max_keypoints(config.query_max_keypoints);
+    if let Some(w) = &fe.superpoint.weights
+        && !w.is_file()
+        && let Some(env) =
+            std::env::var_os(features::SUPERPOINT_WEIGHTS_ENV).filter(|v| !v.is_empty())
+    {
+        fe.superpoint.weights = Some(env.into());
+    }
+    Ok(superpoint::front_end(&fe)?)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -191,7 +207,7 @@ mod tests {
             .model
             .init::<CpuBackend>(4, &Default::default())
             .unwrap();
-        let p = Predictor::from_parts(net.clone(), cfg.clone());
+        let p = Predictor::from_parts(net.clone(), cfg.clone()).unwrap();
         let f = frame(9, 30, 4, 0.0);
         let gray = decode_gray(&f).unwrap();
         let pred = p.predict(&gray, &camera()).unwrap();
@@ -218,7 +234,7 @@ mod tests {
         };
         let s = prepare(
             &g,
-            &cfg.front_end,
+            p.front_end(),
             None,
             &limits,
             &mut seeds::rng(0, Purpose::Sample, 0),
@@ -245,7 +261,7 @@ mod tests {
             .model
             .init::<CpuBackend>(4, &Default::default())
             .unwrap();
-        let p = Predictor::from_parts(net, cfg);
+        let p = Predictor::from_parts(net, cfg).unwrap();
         let e = p.predict(&GrayImage::new(10, 10), &camera()).unwrap_err();
         assert!(e.to_string().contains("10x10"), "{e}");
     }

@@ -10,7 +10,7 @@
 
 use crate::augment::{self, AugmentConfig, AugmentParams};
 use crate::error::TrainError;
-use features::FrontEndConfig;
+use features::FrontEnd;
 use geometry::{Camera, Pose};
 use image::GrayImage;
 use rand::Rng;
@@ -142,7 +142,7 @@ impl DescriptorCache {
     pub fn prefill(
         &mut self,
         paths: &[std::path::PathBuf],
-        fe: &FrontEndConfig,
+        fe: &dyn FrontEnd,
         bar: &indicatif::ProgressBar,
     ) -> Result<(), TrainError> {
         let chunk = 2 * rayon::current_num_threads().max(1);
@@ -162,7 +162,7 @@ impl DescriptorCache {
                 continue;
             }
             // Sized before describing, as `get` does.
-            let size = 4 * features::SIFT_DIM * rows(&frame, fe);
+            let size = 4 * fe.dim() * rows(&frame, fe);
             if planned + size > self.budget_bytes {
                 break;
             }
@@ -178,12 +178,21 @@ impl DescriptorCache {
     fn describe_batch(
         &mut self,
         frames: Vec<FrameRecord>,
-        fe: &FrontEndConfig,
+        fe: &dyn FrontEnd,
         bar: &indicatif::ProgressBar,
     ) -> Result<(), TrainError> {
         use rayon::prelude::*;
-        let described: Vec<Result<FrameDescriptors, TrainError>> =
-            frames.par_iter().map(|f| describe_frame(f, fe)).collect();
+        // Decoded side by side, then described as one batch (SuperPoint runs one network
+        // pass per image size; SIFT describes the images side by side).
+        let images: Vec<Result<GrayImage, TrainError>> =
+            frames.par_iter().map(decode_checked).collect();
+        let images = images.into_iter().collect::<Result<Vec<_>, _>>()?;
+        let items: Vec<(&GrayImage, &[[f64; 2]], &[[f64; 4]])> = images
+            .iter()
+            .zip(&frames)
+            .map(|(i, f)| (i, f.keypoints.as_slice(), f.segments.as_slice()))
+            .collect();
+        let described = fe.describe_batch(&items);
         for (f, d) in frames.iter().zip(described) {
             let (p, l) = d?;
             self.insert(f.frame_id, p, l);
@@ -210,14 +219,14 @@ impl DescriptorCache {
         &mut self,
         frame: &FrameRecord,
         image: Option<&GrayImage>,
-        fe: &FrontEndConfig,
+        fe: &dyn FrontEnd,
     ) -> Result<Option<&FrameDescriptors>, TrainError> {
         if !self.frames.contains_key(&frame.frame_id) {
             let Some(image) = image else {
                 return Ok(None);
             };
             // Sized before describing: a frame past the budget costs nothing extra.
-            let size = 4 * features::SIFT_DIM * rows(frame, fe);
+            let size = 4 * fe.dim() * rows(frame, fe);
             if self.bytes + size > self.budget_bytes {
                 return Ok(None);
             }
@@ -229,40 +238,23 @@ impl DescriptorCache {
 }
 
 /// Descriptor rows of a whole frame (keypoints, and T samples per segment).
-fn rows(frame: &FrameRecord, fe: &FrontEndConfig) -> usize {
-    frame.keypoints.len() + frame.segments.len() * fe.samples_per_line
-}
-
-/// The descriptors of all of a frame's keypoints and segments on its own image.
-fn describe_frame(
-    frame: &FrameRecord,
-    fe: &FrontEndConfig,
-) -> Result<FrameDescriptors, TrainError> {
-    let image = decode_checked(frame)?;
-    describe_on(&image, frame, fe)
+fn rows(frame: &FrameRecord, fe: &dyn FrontEnd) -> usize {
+    frame.keypoints.len() + frame.segments.len() * fe.samples_per_line()
 }
 
 fn describe_on(
     image: &GrayImage,
     frame: &FrameRecord,
-    fe: &FrontEndConfig,
+    fe: &dyn FrontEnd,
 ) -> Result<FrameDescriptors, TrainError> {
-    let p = features::describe_points(image, &frame.keypoints, &fe.sift, &fe.descriptor)?;
-    let l = features::describe_lines(
-        image,
-        &frame.segments,
-        fe.samples_per_line,
-        &fe.sift,
-        &fe.descriptor,
-    )?;
-    Ok((p, l))
+    Ok(fe.describe(image, &frame.keypoints, &frame.segments)?)
 }
 
 /// Builds the sample of `frame`. With `augment = None` the frame is used as it is (the
 /// limits still apply).
 pub fn prepare<R: Rng>(
     frame: &FrameRecord,
-    front_end: &FrontEndConfig,
+    front_end: &dyn FrontEnd,
     augment: Option<&AugmentConfig>,
     limits: &Limits,
     rng: &mut R,
@@ -273,7 +265,7 @@ pub fn prepare<R: Rng>(
 /// [`prepare`], taking the descriptors of an unaugmented sample from `cache`.
 pub fn prepare_with_cache<R: Rng>(
     frame: &FrameRecord,
-    front_end: &FrontEndConfig,
+    front_end: &dyn FrontEnd,
     augment: Option<&AugmentConfig>,
     limits: &Limits,
     rng: &mut R,
@@ -327,8 +319,8 @@ pub fn prepare_with_cache<R: Rng>(
     };
     let (mut point_descriptors, mut line_descriptors) = match (cached, &image) {
         (Some((p, l)), _) => {
-            let d = features::SIFT_DIM;
-            let td = front_end.samples_per_line * d;
+            let d = front_end.dim();
+            let td = front_end.samples_per_line() * d;
             (
                 keypoint_index
                     .iter()
@@ -340,16 +332,7 @@ pub fn prepare_with_cache<R: Rng>(
                     .collect(),
             )
         }
-        (None, Some(image)) => (
-            features::describe_points(image, &keypoints, &front_end.sift, &front_end.descriptor)?,
-            features::describe_lines(
-                image,
-                &segments,
-                front_end.samples_per_line,
-                &front_end.sift,
-                &front_end.descriptor,
-            )?,
-        ),
+        (None, Some(image)) => front_end.describe(image, &keypoints, &segments)?,
         // `from_cache` held, so the cache has the frame and its positions are unchanged.
         (None, None) => {
             return Err(frame_err(
@@ -362,7 +345,7 @@ pub fn prepare_with_cache<R: Rng>(
     // Drawn after everything else, and nothing is drawn when it is off: without it the
     // stream is the same.
     if let Some(cfg) = augment {
-        let d = features::SIFT_DIM;
+        let d = front_end.dim();
         augment::jitter_descriptors(&mut point_descriptors, d, cfg.descriptor_noise, rng);
         augment::jitter_descriptors(&mut line_descriptors, d, cfg.descriptor_noise, rng);
     }
@@ -488,11 +471,12 @@ mod tests {
     use crate::stream::{FrameStream, StreamConfig};
     use crate::testutil::{frame, write_synthetic_shards};
 
-    fn front_end() -> FrontEndConfig {
-        FrontEndConfig {
+    fn front_end() -> features::SiftFrontEnd {
+        features::SiftFrontEnd::new(features::FrontEndConfig {
             samples_per_line: 4,
             ..Default::default()
-        }
+        })
+        .unwrap()
     }
 
     /// On shards without label noise, every labelled point of many augmented samples

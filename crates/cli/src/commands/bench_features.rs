@@ -14,6 +14,49 @@ pub struct Args {
     /// Keypoints per image (2048 = the query setting).
     #[arg(long, default_value_t = 2048)]
     max_keypoints: usize,
+    /// Also time SuperPoint (forward + keypoints + descriptor sampling per image, on
+    /// `--superpoint-threads` threads) with these weights.
+    #[arg(long)]
+    superpoint_weights: Option<PathBuf>,
+    /// Threads of the SuperPoint timing.
+    #[arg(long, default_value_t = 2)]
+    superpoint_threads: usize,
+    /// A Python with torch: times the PyTorch SuperPoint of the tests
+    /// (crates/superpoint/tests/superpoint_torch.py) with the same weights and threads.
+    #[arg(long)]
+    torch_python: Option<PathBuf>,
+}
+
+/// Median seconds per image of SuperPoint's forward + keypoints + descriptors at them.
+fn superpoint_seconds(
+    images: &[image::GrayImage],
+    weights: &Path,
+    threads: usize,
+) -> anyhow::Result<f64> {
+    use features::FrontEnd;
+    let cfg = FrontEndConfig {
+        kind: features::FrontEndKind::Superpoint,
+        superpoint: features::SuperPointConfig {
+            weights: Some(weights.to_path_buf()),
+            ..Default::default()
+        },
+        ..FrontEndConfig::query()
+    };
+    let fe = superpoint::SuperPointFrontEnd::from_config(&cfg)?;
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()?;
+    pool.install(|| {
+        fe.detect(&images[0])?; // warm-up
+        let mut t = Vec::new();
+        for img in images {
+            let s = std::time::Instant::now();
+            fe.detect(img)?;
+            t.push(s.elapsed().as_secs_f64());
+        }
+        t.sort_by(f64::total_cmp);
+        Ok(t[t.len() / 2])
+    })
 }
 
 fn collect(dir: &Path, out: &mut Vec<PathBuf>) -> std::io::Result<()> {
@@ -104,5 +147,46 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     crate::outln!("|       1 | {t1:>8.2} |");
     crate::outln!("|       2 | {t2:>8.2} |");
     crate::outln!("speed-up 2 vs 1 threads: {:.2}x", t2 / t1);
+    if let Some(weights) = &args.superpoint_weights {
+        let ours = superpoint_seconds(&images, weights, args.superpoint_threads)?;
+        crate::outln!();
+        crate::outln!(
+            "SuperPoint forward + keypoints + descriptors, {w}x{h}, {} threads:",
+            args.superpoint_threads
+        );
+        crate::outln!("| implementation | ms / image |");
+        crate::outln!("|----------------|-----------:|");
+        crate::outln!("| burn (Flex)    | {:>10.1} |", ours * 1e3);
+        if let Some(py) = &args.torch_python {
+            let script = concat!(
+                env!("CARGO_MANIFEST_DIR"),
+                "/../superpoint/tests/superpoint_torch.py"
+            );
+            let out = std::process::Command::new(py)
+                .arg(script)
+                .arg("bench")
+                .arg(weights)
+                .args([w.to_string(), h.to_string(), images.len().to_string()])
+                .arg(args.superpoint_threads.to_string())
+                .output()
+                .with_context(|| format!("running {}", py.display()))?;
+            if !out.status.success() {
+                bail!("{script}: {}", String::from_utf8_lossy(&out.stderr).trim());
+            }
+            let v: serde_json::Value = serde_json::from_slice(&out.stdout)?;
+            let theirs = v["median_s"].as_f64().unwrap_or(f64::NAN);
+            crate::outln!(
+                "| PyTorch {:<6} | {:>10.1} |",
+                v["torch"]
+                    .as_str()
+                    .unwrap_or("?")
+                    .split('+')
+                    .next()
+                    .unwrap_or("?"),
+                theirs * 1e3
+            );
+            crate::outln!("burn / PyTorch: {:.2}x", ours / theirs);
+        }
+    }
     Ok(())
 }

@@ -4,6 +4,7 @@ pub mod bench_features;
 pub mod bench_pose;
 pub mod bench_stages;
 pub mod colmap;
+pub mod features;
 pub mod flags;
 pub mod import;
 pub mod ingest;
