@@ -43,7 +43,7 @@ enum Command {
     /// Stage 4: write label shards (MCAP) and their manifest.
     Shard(commands::shard::Args),
     /// Stage 5: train the PL2Map network on the training shards.
-    Train(commands::train::Args),
+    Train(Box<commands::train::Args>),
     /// Stage 6: localise the frames of a shard folder (network or oracle) and score the poses.
     Score(commands::score::Args),
     /// Run a pipeline file (pipeline/*.toml): every stage in order, skipping up-to-date ones.
@@ -83,7 +83,7 @@ fn main() -> std::process::ExitCode {
         Command::Import(a) => commands::import::run(a),
         Command::Refine(a) => commands::refine::run(a),
         Command::Shard(a) => commands::shard::run(a),
-        Command::Train(a) => commands::train::run(a, &sub, cli.quiet),
+        Command::Train(a) => commands::train::run(*a, &sub, cli.quiet),
         Command::Score(a) => commands::score::run(a),
         Command::Run(a) => commands::run::run(a, cli.quiet),
         Command::Lock(a) => commands::verify::lock(a, cli.quiet),

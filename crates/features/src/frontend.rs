@@ -152,6 +152,10 @@ pub struct Detections {
 /// Descriptors of given positions: (points N x D, line samples M x T x D).
 pub type Described = (Vec<f32>, Vec<f32>);
 
+/// One image of a batch with the keypoints and segments to describe in it (a training
+/// image's labelled SfM keypoints and LIMAP segments).
+pub type LabelledImage<'a> = (&'a GrayImage, &'a [[f64; 2]], &'a [[f64; 4]]);
+
 /// A front-end (see the module documentation). Implementations are deterministic: the
 /// same image gives the same bytes for any thread count.
 pub trait FrontEnd: Send + Sync {
@@ -207,10 +211,7 @@ pub trait FrontEnd: Send + Sync {
     }
 
     /// [`FrontEnd::describe`] over a batch, results in input order.
-    fn describe_batch(
-        &self,
-        items: &[(&GrayImage, &[[f64; 2]], &[[f64; 4]])],
-    ) -> Vec<Result<Described, FeatureError>> {
+    fn describe_batch(&self, items: &[LabelledImage<'_>]) -> Vec<Result<Described, FeatureError>> {
         items
             .par_iter()
             .map(|(img, k, s)| self.describe(img, k, s))

@@ -33,8 +33,8 @@ pub use convert::{gray_from_rgb, load_gray};
 pub use error::FeatureError;
 pub use extract::{ImageFeatures, extract, extract_batch};
 pub use frontend::{
-    Described, Detections, FrontEnd, FrontEndKind, SUPERPOINT_DIM, SUPERPOINT_WEIGHTS_ENV,
-    SiftFrontEnd, SuperPointConfig,
+    Described, Detections, FrontEnd, FrontEndKind, LabelledImage, SUPERPOINT_DIM,
+    SUPERPOINT_WEIGHTS_ENV, SiftFrontEnd, SuperPointConfig,
 };
 pub use lines::{describe_lines, sample_points};
 pub use lsd::detect_segments;

@@ -248,7 +248,7 @@ impl FrontEnd for SuperPointFrontEnd {
     /// One network run per image size for the whole batch.
     fn describe_batch(
         &self,
-        items: &[(&GrayImage, &[[f64; 2]], &[[f64; 4]])],
+        items: &[features::LabelledImage<'_>],
     ) -> Vec<Result<Described, FeatureError>> {
         let mut prepared = Vec::with_capacity(items.len());
         let mut errors: Vec<Option<FeatureError>> = Vec::with_capacity(items.len());

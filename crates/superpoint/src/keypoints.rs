@@ -98,11 +98,7 @@ pub fn select(
 /// result is L2-normalised. Appends D values to `out`.
 pub fn sample_descriptor(maps: &DenseMaps, x: f64, y: f64, out: &mut Vec<f32>) {
     let (wc, hc) = (maps.cell_width, maps.cell_height);
-    let c = if wc * hc == 0 {
-        0
-    } else {
-        maps.descriptors.len() / (wc * hc)
-    };
+    let c = maps.descriptors.len().checked_div(wc * hc).unwrap_or(0);
     let start = out.len();
     out.resize(start + c, 0.0);
     if c == 0 {

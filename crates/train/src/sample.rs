@@ -187,7 +187,7 @@ impl DescriptorCache {
         let images: Vec<Result<GrayImage, TrainError>> =
             frames.par_iter().map(decode_checked).collect();
         let images = images.into_iter().collect::<Result<Vec<_>, _>>()?;
-        let items: Vec<(&GrayImage, &[[f64; 2]], &[[f64; 4]])> = images
+        let items: Vec<features::LabelledImage<'_>> = images
             .iter()
             .zip(&frames)
             .map(|(i, f)| (i, f.keypoints.as_slice(), f.segments.as_slice()))
