@@ -216,6 +216,8 @@ fn same_inputs_give_the_same_bytes_and_reruns_are_skipped() {
     assert_eq!(
         fa.keys().collect::<Vec<_>>(),
         [
+            // The folder's lock (stage::FolderLock), empty once released.
+            ".pl2map.lock",
             "import_report.json",
             "lines.parquet",
             "points.parquet",

@@ -132,11 +132,10 @@ impl FolderLock {
 impl Drop for FolderLock {
     fn drop(&mut self) {
         // The holder's name goes with it (a killed holder's stays until the next one
-        // overwrites it). Closing the file releases the lock too; unlocking first makes
-        // it explicit.
-        if self.mode == LockMode::Exclusive {
-            let _ = self.file.set_len(0);
-        }
+        // overwrites it; a shared holder may clear the line of others still holding,
+        // who are then named "another process"). Closing the file releases the lock
+        // too; unlocking first makes it explicit.
+        let _ = self.file.set_len(0);
         let _ = self.file.unlock();
     }
 }

@@ -144,6 +144,11 @@ pub fn run(
         }
         None => None,
     };
+    // The SuperPoint weights are an input like the shards: another file under the same
+    // path trains again.
+    if let Some(sha256) = superpoint::weights_sha256(&config.front_end)? {
+        inputs.insert("superpoint_weights".into(), sha256);
+    }
     let stage = Stage::new(STAGE, dir, &config, inputs)?;
     match stage.check()? {
         RecordCheck::UpToDate => {
