@@ -2,7 +2,7 @@
 //! name mapping, determinism and stage records.
 
 use geometry::{Vector2, Vector3};
-use labels::import::{self, ImportConfig};
+use labels::import::{self, ImportConfig, LineTrackSet};
 use labels::{LabelTables, NameMapping, PoseSource};
 use std::collections::HashMap;
 use tables::frames::Split;
@@ -265,4 +265,80 @@ fn text_models_import_like_binary_ones() {
     colmap::write_text(&scene.model, &scene.model_dir).unwrap();
     let (_, txt) = import(&scene, &ImportConfig::default(), "txt");
     assert_eq!(bin, txt);
+}
+
+/// LIMAP's alltracks.txt holds the tracks seen in at least 4 distinct images: the labels
+/// from it are the finaltracks labels of exactly those tracks (counted here from the
+/// scene's own tracks, not by the limap crate), with the same segments and endpoints.
+#[test]
+fn alltracks_labels_are_the_finaltracks_labels_of_tracks_seen_in_four_images() {
+    let scene = Scene::build(&SceneOptions::default());
+    let (_, fin) = import(&scene, &ImportConfig::default(), "final");
+    let config = ImportConfig {
+        line_tracks: LineTrackSet::Alltracks,
+        ..Default::default()
+    };
+    let (out, all) = import(&scene, &config, "all");
+    let kept: Vec<i64> = scene
+        .tracks
+        .iter()
+        .enumerate()
+        .filter(|(_, t)| {
+            let mut ids = t.image_ids.clone();
+            ids.sort_unstable();
+            ids.dedup();
+            ids.len() >= 4
+        })
+        .map(|(i, _)| i as i64)
+        .collect();
+    assert!(
+        !kept.is_empty() && kept.len() < scene.tracks.len(),
+        "the scene needs tracks on both sides of 4 images: {} of {}",
+        kept.len(),
+        scene.tracks.len()
+    );
+    let labelled = |t: &LabelTables| -> HashMap<(u32, u32), (i64, [[f64; 3]; 2])> {
+        t.lines
+            .iter()
+            .filter_map(|r| {
+                r.endpoints
+                    .map(|e| ((r.frame_id, r.seg_index), (r.track_id, e)))
+            })
+            .collect()
+    };
+    let (fin, all) = (labelled(&fin), labelled(&all));
+    let expected: HashMap<(u32, u32), (i64, [[f64; 3]; 2])> = fin
+        .iter()
+        .filter_map(|(k, (t, e))| {
+            // alltracks numbers its tracks 0, 1, ... in finaltracks order.
+            kept.iter()
+                .position(|x| x == t)
+                .map(|rank| (*k, (rank as i64, *e)))
+        })
+        .collect();
+    assert!(!expected.is_empty() && expected.len() < fin.len());
+    assert_eq!(all, expected);
+    assert_eq!(
+        out.output.report.config.line_tracks,
+        LineTrackSet::Alltracks
+    );
+    assert_eq!(out.output.report.limap.tracks, kept.len());
+}
+
+#[test]
+fn alltracks_without_the_file_is_refused_naming_it() {
+    let scene = Scene::build(&SceneOptions::default());
+    std::fs::remove_file(scene.limap_dir.join("alltracks.txt")).unwrap();
+    let config = ImportConfig {
+        line_tracks: LineTrackSet::Alltracks,
+        ..Default::default()
+    };
+    let e = import::run(
+        &scene.with_inputs(&config),
+        &scene.frames_path,
+        &scene.out("x"),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("alltracks.txt does not exist"), "{e}");
 }

@@ -88,6 +88,44 @@ pub struct ImportConfig {
     /// The LIMAP track folder, relative to the LIMAP folder; default: `finaltracks`.
     #[arg(long)]
     pub limap_tracks: Option<PathBuf>,
+    /// Which line tracks label the lines: `finaltracks` (every track of the track folder)
+    /// or `alltracks` (LIMAP's alltracks.txt: the tracks seen in at least 4 images, what
+    /// the reference implementation trains on).
+    #[serde(skip_serializing_if = "LineTrackSet::is_default")]
+    #[arg(long, value_enum, default_value_t = LineTrackSet::default())]
+    pub line_tracks: LineTrackSet,
+}
+
+/// The LIMAP tracks the line labels come from (`[import] line_tracks`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum LineTrackSet {
+    /// Every track of the track folder (`finaltracks/`).
+    #[default]
+    Finaltracks,
+    /// `alltracks.txt`: the tracks seen in at least 4 images.
+    Alltracks,
+}
+
+impl LineTrackSet {
+    /// Serialised only when not the default, so that configurations (and the records
+    /// and reports that hash them) written before the option existed keep their bytes.
+    fn is_default(&self) -> bool {
+        *self == LineTrackSet::default()
+    }
+
+    pub fn as_str(self) -> &'static str {
+        match self {
+            LineTrackSet::Finaltracks => "finaltracks",
+            LineTrackSet::Alltracks => "alltracks",
+        }
+    }
+}
+
+impl std::fmt::Display for LineTrackSet {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.as_str())
+    }
 }
 
 impl Default for ImportConfig {
@@ -103,6 +141,7 @@ impl Default for ImportConfig {
             bounds_tolerance_px: 1.0,
             limap_segments: None,
             limap_tracks: None,
+            line_tracks: LineTrackSet::Finaltracks,
         }
     }
 }
@@ -262,6 +301,21 @@ fn limap_hashes(dir: &LimapDir) -> Result<BTreeMap<String, String>, ImportError>
     ]))
 }
 
+/// Makes the chosen track set the one the labels are built from.
+fn select_tracks(limap: &mut LimapDir, set: LineTrackSet) -> Result<(), ImportError> {
+    if set == LineTrackSet::Alltracks {
+        let path = limap.root.join(limap::dir::ALLTRACKS_FILE);
+        limap.tracks = limap.alltracks.clone().ok_or_else(|| {
+            ImportError::Config(format!(
+                "line_tracks = alltracks, but {} does not exist (LIMAP writes it next to \
+                 finaltracks/); use line_tracks = finaltracks",
+                path.display()
+            ))
+        })?;
+    }
+    Ok(())
+}
+
 fn limap_options(config: &ImportConfig, limap_dir: &Path) -> LimapDirOptions {
     LimapDirOptions {
         segments: config.limap_segments.as_ref().map(|p| limap_dir.join(p)),
@@ -284,7 +338,8 @@ pub fn run(
     let model_files = model_files(model_dir)?;
     // Reading LIMAP's folder fixes which segments and tracks folders are used (and
     // refuses an ambiguous one) before anything is hashed.
-    let limap = LimapDir::open_unchecked(limap_dir, &limap_options(config, limap_dir))?;
+    let mut limap = LimapDir::open_unchecked(limap_dir, &limap_options(config, limap_dir))?;
+    select_tracks(&mut limap, config.line_tracks)?;
     let mut inputs = limap_hashes(&limap)?;
     inputs.insert("frames".into(), frames_sha256.clone());
     inputs.insert(

@@ -136,12 +136,14 @@ impl ImportReport {
             self.config.limap_names
         ));
         s.push_str(&format!(
-            "model: {} images ({} used), {} points3D; LIMAP: {} images, {} tracks ({} used)\n",
+            "model: {} images ({} used), {} points3D; LIMAP: {} images, {} tracks of {} ({} \
+             used)\n",
             self.model.images,
             self.model.images_used,
             self.model.points3d,
             self.limap.images,
             self.limap.tracks,
+            self.config.line_tracks,
             self.limap.tracks_used
         ));
         s.push_str("labels       total     valid   valid %   no 3D\n");
