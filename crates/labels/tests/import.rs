@@ -267,6 +267,9 @@ fn text_models_import_like_binary_ones() {
     assert_eq!(bin, txt);
 }
 
+/// (frame id, segment index) -> (track id, endpoints) of the labelled lines.
+type LineLabels = HashMap<(u32, u32), (i64, [[f64; 3]; 2])>;
+
 /// LIMAP's alltracks.txt holds the tracks seen in at least 4 distinct images: the labels
 /// from it are the finaltracks labels of exactly those tracks (counted here from the
 /// scene's own tracks, not by the limap crate), with the same segments and endpoints.
@@ -297,7 +300,7 @@ fn alltracks_labels_are_the_finaltracks_labels_of_tracks_seen_in_four_images() {
         kept.len(),
         scene.tracks.len()
     );
-    let labelled = |t: &LabelTables| -> HashMap<(u32, u32), (i64, [[f64; 3]; 2])> {
+    let labelled = |t: &LabelTables| -> LineLabels {
         t.lines
             .iter()
             .filter_map(|r| {
@@ -307,7 +310,7 @@ fn alltracks_labels_are_the_finaltracks_labels_of_tracks_seen_in_four_images() {
             .collect()
     };
     let (fin, all) = (labelled(&fin), labelled(&all));
-    let expected: HashMap<(u32, u32), (i64, [[f64; 3]; 2])> = fin
+    let expected: LineLabels = fin
         .iter()
         .filter_map(|(k, (t, e))| {
             // alltracks numbers its tracks 0, 1, ... in finaltracks order.
