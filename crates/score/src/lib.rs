@@ -23,6 +23,7 @@ mod error;
 pub mod evaluate;
 pub mod hloc;
 mod localiser;
+pub mod localize;
 #[cfg(feature = "network")]
 pub mod network;
 pub mod oracle;
@@ -31,9 +32,10 @@ pub mod run;
 pub mod score_stage;
 pub mod summary;
 pub mod table;
+pub mod visual;
 
 pub use error::ScoreError;
-pub use evaluate::{FrameResult, ScoreConfig, Variant, VariantResult};
+pub use evaluate::{FrameResult, ScoreConfig, Variant, VariantResult, localize_frame};
 pub use localiser::{
     Correspondences, LineCorrespondence, Localiser, PointCorrespondence, TestFrame, Timing,
 };

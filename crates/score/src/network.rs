@@ -63,10 +63,10 @@ impl Localiser for NetworkLocaliser {
 
     /// The front-ends of all frames side by side on the rayon pool (each is one
     /// single-threaded OpenCV call chain), then the network frame by frame.
-    fn correspond_many(
+    fn correspond_each(
         &mut self,
         frames: &[TestFrame],
-    ) -> Result<Vec<Correspondences>, ScoreError> {
+    ) -> Vec<Result<Correspondences, ScoreError>> {
         use rayon::prelude::*;
         let fe = self.predictor.front_end();
         let fronts: Vec<Result<FrontEnd, ScoreError>> =

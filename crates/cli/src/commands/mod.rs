@@ -8,6 +8,7 @@ pub mod flags;
 pub mod import;
 pub mod ingest;
 pub mod limap;
+pub mod localize;
 pub mod pose;
 pub mod refine;
 pub mod run;
