@@ -131,27 +131,10 @@ impl NetworkLocaliser {
             step: step.into(),
             ms,
         };
+        let (points, lines) = correspondences(&pred);
         Ok(Correspondences {
-            points: pred
-                .points
-                .iter()
-                .map(|p| PointCorrespondence {
-                    pixel: p.xy,
-                    world: p.xyz,
-                    reliability: p.reliability,
-                })
-                .collect(),
-            lines: pred
-                .lines
-                .iter()
-                .map(|l| LineCorrespondence {
-                    segment: l.segment,
-                    world: [
-                        l.start[0], l.start[1], l.start[2], l.end[0], l.end[1], l.end[2],
-                    ],
-                    reliability: l.reliability,
-                })
-                .collect(),
+            points,
+            lines,
             timings: vec![
                 timing("decode", decode_ms),
                 timing("front_end", front_end_ms),
@@ -159,6 +142,37 @@ impl NetworkLocaliser {
             ],
         })
     }
+
+    /// The predictor behind this localiser.
+    pub fn predictor(&self) -> &Predictor {
+        &self.predictor
+    }
+}
+
+/// A prediction as correspondences, in its order.
+pub fn correspondences(
+    pred: &train::ImagePrediction,
+) -> (Vec<PointCorrespondence>, Vec<LineCorrespondence>) {
+    (
+        pred.points
+            .iter()
+            .map(|p| PointCorrespondence {
+                pixel: p.xy,
+                world: p.xyz,
+                reliability: p.reliability,
+            })
+            .collect(),
+        pred.lines
+            .iter()
+            .map(|l| LineCorrespondence {
+                segment: l.segment,
+                world: [
+                    l.start[0], l.start[1], l.start[2], l.end[0], l.end[1], l.end[2],
+                ],
+                reliability: l.reliability,
+            })
+            .collect(),
+    )
 }
 
 #[cfg(test)]

@@ -395,7 +395,7 @@ fn lines(l: &Localised, mask: &[bool], config: &ScoreConfig, ts: Timestamp) -> S
             b: f64::from(c[2]) / 255.0,
             a: f64::from(c[3]) / 255.0,
         };
-        colors.push(c.clone());
+        colors.push(c);
         colors.push(c);
     }
     SceneUpdate {

@@ -1,6 +1,7 @@
 pub mod bench;
 pub mod bench_colmap;
 pub mod bench_features;
+pub mod bench_localize;
 pub mod bench_pose;
 pub mod bench_stages;
 pub mod colmap;

@@ -16,6 +16,8 @@
 //!   (missing or unreadable image, bad camera line, image of another size than its
 //!   camera) is a row of the table with its reason; the others are still localised.
 
+#[cfg(feature = "network")]
+pub mod bench;
 pub mod queries;
 pub mod table;
 
