@@ -48,11 +48,11 @@ impl ImageFeatures {
 /// The same output as [`extract_per_call`] (detect, [`describe_points`],
 /// [`detect_segments`], [`describe_lines`]), bit for bit, computed faster: SIFT
 /// detection and LSD side by side (`rayon::join`), then the descriptors of the
-/// keypoints and of every line sample in one pass over one scale-space pyramid
-/// (`sift::describe_all`), split into chunks that run side by side. A descriptor
-/// depends only on the image's first pyramid level and its own keypoint, so neither the
-/// pass nor the chunking changes a value (the test `extract_equals_the_per_call_path`
-/// checks it).
+/// keypoints and of every line sample in one pass over one scale-space pyramid level
+/// ([`describe_points_and_lines`]; on more than one thread, one chunk per thread). A
+/// descriptor depends only on the image's first pyramid level and its own keypoint, so
+/// neither the pass nor the chunking changes a value (the test
+/// `extract_equals_the_per_call_path` checks it).
 pub fn extract(img: &GrayImage, cfg: &FrontEndConfig) -> Result<ImageFeatures, FeatureError> {
     cfg.validate()?;
     let (kps, segments) = rayon::join(
@@ -74,8 +74,8 @@ pub fn extract(img: &GrayImage, cfg: &FrontEndConfig) -> Result<ImageFeatures, F
 }
 
 /// [`describe_points`] and [`describe_lines`] of one image in one pass: every
-/// descriptor from one scale-space pyramid level (`sift::describe_all`, chunks side by
-/// side on the rayon pool), the same values bit for bit. Returns (N x 128, M x T x 128).
+/// descriptor from one scale-space pyramid level (`sift::describe_all`; one chunk per
+/// thread of the rayon pool, side by side), the same values bit for bit. Returns (N x 128, M x T x 128).
 pub fn describe_points_and_lines(
     img: &GrayImage,
     keypoints: &[[f64; 2]],

@@ -189,25 +189,27 @@ pub(crate) fn point_keypoints(positions: &[[f64; 2]], desc_cfg: &DescriptorConfi
         .collect()
 }
 
-/// Keypoints per OpenCV call in [`describe_all`]: each call builds its own pyramid
-/// level (a few ms on 640x480), small next to describing this many keypoints (about
-/// 0.1 ms each at the default sizes), and a frame's few thousand keypoints still make
-/// a few chunks to share out between cores.
-const DESCRIBE_CHUNK: usize = 1024;
+/// Fewest keypoints per OpenCV call in [`describe_all`]: each call builds its own first
+/// pyramid level (a few ms on 640x480), small next to describing this many keypoints
+/// (about 0.1 ms each at the default sizes).
+const MIN_CHUNK: usize = 256;
 
-/// Descriptors of all `keypoints` (points and line samples alike) in fixed chunks of
-/// [`DESCRIBE_CHUNK`], side by side on the rayon pool: the same rows as one
-/// [`describe_keypoints`] call, since OpenCV describes every keypoint of octave 0 from
-/// the same first pyramid level, whatever else is in the call. The chunks do not depend
-/// on the thread count.
+/// Descriptors of all `keypoints` (points and line samples alike): one OpenCV call, so
+/// one pyramid level for all, on a pool of one thread; on more threads, as many equal
+/// chunks as threads (of at least [`MIN_CHUNK`]) side by side. The rows are those of
+/// one [`describe_keypoints`] call whatever the chunks: OpenCV describes every keypoint
+/// of octave 0 from the same first pyramid level and its own position, size and angle
+/// alone.
 pub(crate) fn describe_all(
     img: &GrayImage,
     keypoints: &[KeySpec],
     sift_cfg: &SiftConfig,
 ) -> Result<Vec<f32>, FeatureError> {
     use rayon::prelude::*;
+    let threads = rayon::current_num_threads().max(1);
+    let chunk = keypoints.len().div_ceil(threads).max(MIN_CHUNK);
     let parts: Vec<Result<Vec<f32>, FeatureError>> = keypoints
-        .par_chunks(DESCRIBE_CHUNK)
+        .par_chunks(chunk)
         .map(|chunk| describe_keypoints(img, to_cv_keypoints(chunk)?, sift_cfg))
         .collect();
     let mut out = Vec::with_capacity(keypoints.len() * SIFT_DIM);

@@ -288,7 +288,7 @@ fn extract_equals_the_per_call_path() {
     for img in &images {
         let reference = extract_per_call(img, &cfg).unwrap();
         assert!(reference.num_keypoints() > 0 && reference.num_segments() > 0);
-        for threads in [1, 2] {
+        for threads in [1, 2, 3] {
             let fast = testkit::on_threads(threads, || extract(img, &cfg).unwrap());
             assert_eq!(fast.keypoints, reference.keypoints);
             assert_eq!(fast.segments, reference.segments);

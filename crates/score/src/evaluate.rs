@@ -240,7 +240,7 @@ fn run_variant(
 }
 
 /// Localises one image from its correspondences: the reliability filters, then RANSAC
-/// with points only and with points + lines, seeded with [`frame_seed`] of the run's
+/// with points only and with points + lines (side by side), seeded with [`frame_seed`] of the run's
 /// seed and `frame_id`. The one localisation step of both the score stage
 /// ([`score_frame`]) and `pl2map localize` ([`crate::localize`]); the variants carry
 /// no errors (no ground truth here). `timings` holds what came before; the filter and
@@ -263,12 +263,16 @@ pub fn localize_frame(
         seed: frame_seed(config.ransac.seed, frame_id),
         ..config.ransac.clone()
     };
-    let p = run_variant(camera, &points, &[], &options);
+    // Both variants side by side on the rayon pool: each is seeded alike and reads
+    // only its inputs, so the poses are those of one after the other.
+    let (p, pl) = rayon::join(
+        || run_variant(camera, &points, &[], &options),
+        || run_variant(camera, &points, &lines, &options),
+    );
     timings.push(Timing {
         step: "pose_points".into(),
         ms: p.ms,
     });
-    let pl = run_variant(camera, &points, &lines, &options);
     timings.push(Timing {
         step: "pose_points_lines".into(),
         ms: pl.ms,
