@@ -75,7 +75,8 @@ pub fn extract(img: &GrayImage, cfg: &FrontEndConfig) -> Result<ImageFeatures, F
 
 /// [`describe_points`] and [`describe_lines`] of one image in one pass: every
 /// descriptor from one scale-space pyramid level (`sift::describe_all`; one chunk per
-/// thread of the rayon pool, side by side), the same values bit for bit. Returns (N x 128, M x T x 128).
+/// thread of the rayon pool, side by side), the same values bit for bit. Returns
+/// (N x 128, M x T x 128).
 pub fn describe_points_and_lines(
     img: &GrayImage,
     keypoints: &[[f64; 2]],
@@ -93,9 +94,8 @@ pub fn describe_points_and_lines(
     Ok((descriptors, line_descriptors))
 }
 
-/// [`extract`] one public call after the other, each describing on its own pyramid:
-/// the reference [`extract`] must equal, and the per-step timing of
-/// `features::bench`.
+/// [`extract`] as one public call after the other, each describing on its own
+/// pyramid: the reference that [`extract`] must equal bit for bit.
 pub fn extract_per_call(
     img: &GrayImage,
     cfg: &FrontEndConfig,

@@ -9,6 +9,11 @@
 //! - [`evaluate`]: per frame, keep predictions with reliability >= 0.5 (points) /
 //!   0.02 (lines), then `pose::estimate_pose` (12 px / 10 px, seeded per frame) for both
 //!   variants, and the errors of `geometry::metrics`.
+//! - [`localize`]: the localisation path the stage shares with `pl2map localize`
+//!   (correspondences, then [`evaluate::localize_frame`] for a batch of frames side by
+//!   side), hloc query lists, the per-image table and `localize::run`.
+//! - [`visual`]: `visual.mcap` for Foxglove (the score stage's `visual`, `pl2map
+//!   localize --visual`).
 //! - [`run()`]: the stage. Outputs in the output folder, each written atomically:
 //!   `per_frame.parquet` ([`table`]), `results_points.txt` and
 //!   `results_points_lines.txt` ([`hloc`] format), `summary.md` and `summary.json`

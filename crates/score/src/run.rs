@@ -98,7 +98,8 @@ pub fn run_with_visual(
     let mut results = Vec::with_capacity(reader.frame_count());
     let mut reader = reader;
     // A few frames per round, so a localiser can run their front-ends side by side
-    // (`Localiser::correspond_many`); results are the same as frame by frame.
+    // (`Localiser::correspond_each`) and their RANSAC too; results are the same as
+    // frame by frame.
     let round = 2 * rayon::current_num_threads().max(1);
     let mut frames = Vec::with_capacity(round);
     let mut read_ms = Vec::with_capacity(round);
