@@ -46,6 +46,8 @@ enum Command {
     Train(Box<commands::train::Args>),
     /// Stage 6: localise the frames of a shard folder (network or oracle) and score the poses.
     Score(commands::score::Args),
+    /// Localise new images (hloc query list or a folder) with a trained map: hloc results, per-image table.
+    Localize(commands::localize::Args),
     /// Run a pipeline file (pipeline/*.toml): every stage in order, skipping up-to-date ones.
     Run(commands::run::Args),
     /// Write the lock file (manifests/*.toml) of a pipeline's training set.
@@ -85,6 +87,7 @@ fn main() -> std::process::ExitCode {
         Command::Shard(a) => commands::shard::run(a),
         Command::Train(a) => commands::train::run(*a, &sub, cli.quiet),
         Command::Score(a) => commands::score::run(a),
+        Command::Localize(a) => commands::localize::run(a),
         Command::Run(a) => commands::run::run(a, cli.quiet),
         Command::Lock(a) => commands::verify::lock(a, cli.quiet),
         Command::Verify(a) => commands::verify::verify(a, cli.quiet),

@@ -31,7 +31,9 @@ pub mod bench;
 pub use config::{DescriptorConfig, FrontEndConfig, LsdConfig, SiftConfig};
 pub use convert::{gray_from_rgb, load_gray};
 pub use error::FeatureError;
-pub use extract::{ImageFeatures, extract, extract_batch};
+pub use extract::{
+    ImageFeatures, describe_points_and_lines, extract, extract_batch, extract_per_call,
+};
 pub use frontend::{
     Described, Detections, FrontEnd, FrontEndKind, LabelledImage, SUPERPOINT_DIM,
     SUPERPOINT_WEIGHTS_ENV, SiftFrontEnd, SuperPointConfig,

@@ -2,9 +2,8 @@
 
 use crate::config::{DescriptorConfig, SiftConfig};
 use crate::error::FeatureError;
-use crate::sift::{cv_keypoint, describe_keypoints};
+use crate::sift::{KeySpec, describe_keypoints, to_cv_keypoints};
 use image::GrayImage;
-use opencv::core::{KeyPoint, Vector};
 
 /// `t` points evenly spaced along a segment, endpoints included
 /// (step = (end - start) / (t - 1)).
@@ -34,12 +33,27 @@ pub fn describe_lines(
     sift_cfg: &SiftConfig,
     desc_cfg: &DescriptorConfig,
 ) -> Result<Vec<f32>, FeatureError> {
-    let mut kps = Vector::<KeyPoint>::with_capacity(segments.len() * t);
+    let kps = to_cv_keypoints(&line_keypoints(segments, t, desc_cfg))?;
+    describe_keypoints(img, kps, sift_cfg)
+}
+
+/// The OpenCV keypoints [`describe_lines`] describes: `t` per segment, in segment
+/// order, each oriented along its segment at the fixed line size.
+pub(crate) fn line_keypoints(
+    segments: &[[f64; 4]],
+    t: usize,
+    desc_cfg: &DescriptorConfig,
+) -> Vec<KeySpec> {
+    let mut kps = Vec::with_capacity(segments.len() * t);
     for seg in segments {
         let angle = opencv_angle_along(seg[2] - seg[0], seg[3] - seg[1]);
-        for p in sample_points(seg, t) {
-            kps.push(cv_keypoint(p, desc_cfg.line_size, angle)?);
+        for xy in sample_points(seg, t) {
+            kps.push(KeySpec {
+                xy,
+                size: desc_cfg.line_size,
+                angle,
+            });
         }
     }
-    describe_keypoints(img, kps, sift_cfg)
+    kps
 }

@@ -272,3 +272,32 @@ fn real_7scenes_frame() {
         assert!(k[0] > 0.0 && k[0] < 640.0 && k[1] > 0.0 && k[1] < 480.0);
     }
 }
+
+/// The query path (`extract`: detection and LSD side by side, every descriptor in one
+/// pass over one pyramid, chunks side by side) equals the public calls one after the
+/// other (`extract_per_call`) bit for bit, on 1 and 2 threads and on real frames.
+#[test]
+fn extract_equals_the_per_call_path() {
+    let mut images = vec![textured(320, 240, 11), textured(640, 480, 12)];
+    let real = testkit::sample::root().join("7scenes-stairs-mini/stairs/seq-01");
+    if real.is_dir() {
+        let dir = real;
+        images.push(load_gray(&dir.join("frame-000000.color.jpg")).unwrap());
+    }
+    let cfg = FrontEndConfig::query();
+    for img in &images {
+        let reference = extract_per_call(img, &cfg).unwrap();
+        assert!(reference.num_keypoints() > 0 && reference.num_segments() > 0);
+        for threads in [1, 2, 3] {
+            let fast = testkit::on_threads(threads, || extract(img, &cfg).unwrap());
+            assert_eq!(fast.keypoints, reference.keypoints);
+            assert_eq!(fast.segments, reference.segments);
+            let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(&fast.descriptors), bits(&reference.descriptors));
+            assert_eq!(
+                bits(&fast.line_descriptors),
+                bits(&reference.line_descriptors)
+            );
+        }
+    }
+}

@@ -79,4 +79,12 @@ pub enum ScoreError {
     },
     #[error(transparent)]
     Stage(#[from] stage::StageError),
+    #[error("{}: line {line}: {reason}", path.display())]
+    QueryList {
+        path: PathBuf,
+        line: usize,
+        reason: String,
+    },
+    #[error("{}: visual MCAP: {reason}", path.display())]
+    Visual { path: PathBuf, reason: String },
 }

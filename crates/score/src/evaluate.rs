@@ -3,9 +3,9 @@
 
 use crate::error::ScoreError;
 use crate::localiser::{Correspondences, TestFrame, Timing};
-use geometry::Pose;
 use geometry::lines::{Segment2, Segment3};
 use geometry::metrics::{PoseError, pose_error};
+use geometry::{Camera, Pose};
 use nalgebra::{Vector2, Vector3};
 use pose::{LineMatch, PointMatch, RansacOptions, estimate_pose};
 use serde::{Deserialize, Serialize};
@@ -142,6 +142,10 @@ pub struct VariantResult {
     pub line_inliers: usize,
     pub iterations: usize,
     pub ms: f64,
+    /// Per kept correspondence (points, then lines, in the order of [`filter`]'s
+    /// output): an inlier of the pose. Empty without a pose.
+    pub point_inlier_mask: Vec<bool>,
+    pub line_inlier_mask: Vec<bool>,
 }
 
 /// Everything measured on one frame.
@@ -201,23 +205,25 @@ pub fn filter(c: &Correspondences, config: &ScoreConfig) -> (Vec<PointMatch>, Ve
 }
 
 fn run_variant(
-    frame: &TestFrame,
+    camera: &Camera,
     points: &[PointMatch],
     lines: &[LineMatch],
     options: &RansacOptions,
 ) -> VariantResult {
     let t = Instant::now();
-    let result = estimate_pose(frame.camera(), points, lines, options);
+    let result = estimate_pose(camera, points, lines, options);
     let ms = t.elapsed().as_secs_f64() * 1e3;
     match result {
         Ok(est) => VariantResult {
-            error: Some(pose_error(frame.gt_pose(), &est.pose)),
+            error: None,
             pose: Some(est.pose),
             failure: None,
             point_inliers: est.num_point_inliers,
             line_inliers: est.num_line_inliers,
             iterations: est.iterations,
             ms,
+            point_inlier_mask: est.point_inliers,
+            line_inlier_mask: est.line_inliers,
         },
         Err(e) => VariantResult {
             pose: None,
@@ -227,14 +233,22 @@ fn run_variant(
             line_inliers: 0,
             iterations: 0,
             ms,
+            point_inlier_mask: Vec::new(),
+            line_inlier_mask: Vec::new(),
         },
     }
 }
 
-/// Scores one frame from its correspondences. `timings` holds what came before
-/// (reading, the localiser's steps); the filter and both pose estimations are added.
-pub fn score_frame(
-    frame: &TestFrame,
+/// Localises one image from its correspondences: the reliability filters, then RANSAC
+/// with points only and with points + lines (side by side), seeded with [`frame_seed`] of the run's
+/// seed and `frame_id`. The one localisation step of both the score stage
+/// ([`score_frame`]) and `pl2map localize` ([`crate::localize`]); the variants carry
+/// no errors (no ground truth here). `timings` holds what came before; the filter and
+/// both pose estimations are added.
+pub fn localize_frame(
+    frame_id: u64,
+    name: &str,
+    camera: &Camera,
     corr: &Correspondences,
     config: &ScoreConfig,
     mut timings: Vec<Timing>,
@@ -246,28 +260,59 @@ pub fn score_frame(
         ms: t.elapsed().as_secs_f64() * 1e3,
     });
     let options = RansacOptions {
-        seed: frame_seed(config.ransac.seed, frame.frame_id()),
+        seed: frame_seed(config.ransac.seed, frame_id),
         ..config.ransac.clone()
     };
-    let p = run_variant(frame, &points, &[], &options);
+    // Both variants side by side on the rayon pool: each is seeded alike and reads
+    // only its inputs, so the poses are those of one after the other.
+    let (p, pl) = rayon::join(
+        || run_variant(camera, &points, &[], &options),
+        || run_variant(camera, &points, &lines, &options),
+    );
     timings.push(Timing {
         step: "pose_points".into(),
         ms: p.ms,
     });
-    let pl = run_variant(frame, &points, &lines, &options);
     timings.push(Timing {
         step: "pose_points_lines".into(),
         ms: pl.ms,
     });
     FrameResult {
-        frame_id: frame.frame_id(),
-        name: frame.name().to_string(),
+        frame_id,
+        name: name.to_string(),
         points_total: corr.points.len(),
         lines_total: corr.lines.len(),
         points_kept: points.len(),
         lines_kept: lines.len(),
         variants: [p, pl],
         timings,
+    }
+}
+
+/// Scores one frame: [`localize_frame`], then each pose's error against the frame's
+/// ground truth.
+pub fn score_frame(
+    frame: &TestFrame,
+    corr: &Correspondences,
+    config: &ScoreConfig,
+    timings: Vec<Timing>,
+) -> FrameResult {
+    let mut r = localize_frame(
+        frame.frame_id(),
+        frame.name(),
+        frame.camera(),
+        corr,
+        config,
+        timings,
+    );
+    measure(&mut r, frame.gt_pose());
+    r
+}
+
+/// Fills in each variant's error against the ground truth `gt`.
+pub fn measure(r: &mut FrameResult, gt: &Pose) {
+    for v in &mut r.variants {
+        v.error = v.pose.as_ref().map(|p| pose_error(gt, p));
     }
 }
 

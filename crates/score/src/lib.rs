@@ -9,6 +9,11 @@
 //! - [`evaluate`]: per frame, keep predictions with reliability >= 0.5 (points) /
 //!   0.02 (lines), then `pose::estimate_pose` (12 px / 10 px, seeded per frame) for both
 //!   variants, and the errors of `geometry::metrics`.
+//! - [`localize`]: the localisation path the stage shares with `pl2map localize`
+//!   (correspondences, then [`evaluate::localize_frame`] for a batch of frames side by
+//!   side), hloc query lists, the per-image table and `localize::run`.
+//! - [`visual`]: `visual.mcap` for Foxglove (the score stage's `visual`, `pl2map
+//!   localize --visual`).
 //! - [`run()`]: the stage. Outputs in the output folder, each written atomically:
 //!   `per_frame.parquet` ([`table`]), `results_points.txt` and
 //!   `results_points_lines.txt` ([`hloc`] format), `summary.md` and `summary.json`
@@ -23,6 +28,7 @@ mod error;
 pub mod evaluate;
 pub mod hloc;
 mod localiser;
+pub mod localize;
 #[cfg(feature = "network")]
 pub mod network;
 pub mod oracle;
@@ -31,9 +37,10 @@ pub mod run;
 pub mod score_stage;
 pub mod summary;
 pub mod table;
+pub mod visual;
 
 pub use error::ScoreError;
-pub use evaluate::{FrameResult, ScoreConfig, Variant, VariantResult};
+pub use evaluate::{FrameResult, ScoreConfig, Variant, VariantResult, localize_frame};
 pub use localiser::{
     Correspondences, LineCorrespondence, Localiser, PointCorrespondence, TestFrame, Timing,
 };

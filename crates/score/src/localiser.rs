@@ -102,15 +102,25 @@ pub trait Localiser {
     /// cannot work (unreadable image, broken model), not that the frame is hard.
     fn correspond(&mut self, frame: &TestFrame) -> Result<Correspondences, ScoreError>;
 
+    /// Correspondences of several frames, in their order, each with its own result: a
+    /// frame that cannot be read does not stop the others (`pl2map localize`). The
+    /// default corresponds one frame after the other; a localiser with per-frame work
+    /// that can run side by side (the network's front-end) overrides it, with the same
+    /// results.
+    fn correspond_each(
+        &mut self,
+        frames: &[TestFrame],
+    ) -> Vec<Result<Correspondences, ScoreError>> {
+        frames.iter().map(|f| self.correspond(f)).collect()
+    }
+
     /// Correspondences of several frames, in their order; the first error (in frame
-    /// order) stops the run. The default corresponds one frame after the other; a
-    /// localiser with per-frame work that can run side by side (the network's
-    /// front-end) overrides it, with the same results.
+    /// order) stops the run (the score stage).
     fn correspond_many(
         &mut self,
         frames: &[TestFrame],
     ) -> Result<Vec<Correspondences>, ScoreError> {
-        frames.iter().map(|f| self.correspond(f)).collect()
+        self.correspond_each(frames).into_iter().collect()
     }
 }
 

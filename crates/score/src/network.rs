@@ -63,10 +63,10 @@ impl Localiser for NetworkLocaliser {
 
     /// The front-ends of all frames side by side on the rayon pool (each is one
     /// single-threaded OpenCV call chain), then the network frame by frame.
-    fn correspond_many(
+    fn correspond_each(
         &mut self,
         frames: &[TestFrame],
-    ) -> Result<Vec<Correspondences>, ScoreError> {
+    ) -> Vec<Result<Correspondences, ScoreError>> {
         use rayon::prelude::*;
         let fe = self.predictor.front_end();
         let fronts: Vec<Result<FrontEnd, ScoreError>> =
@@ -132,27 +132,10 @@ impl NetworkLocaliser {
             step: step.into(),
             ms,
         };
+        let (points, lines) = correspondences(&pred);
         Ok(Correspondences {
-            points: pred
-                .points
-                .iter()
-                .map(|p| PointCorrespondence {
-                    pixel: p.xy,
-                    world: p.xyz,
-                    reliability: p.reliability,
-                })
-                .collect(),
-            lines: pred
-                .lines
-                .iter()
-                .map(|l| LineCorrespondence {
-                    segment: l.segment,
-                    world: [
-                        l.start[0], l.start[1], l.start[2], l.end[0], l.end[1], l.end[2],
-                    ],
-                    reliability: l.reliability,
-                })
-                .collect(),
+            points,
+            lines,
             timings: vec![
                 timing("decode", decode_ms),
                 timing("front_end", front_end_ms),
@@ -160,6 +143,37 @@ impl NetworkLocaliser {
             ],
         })
     }
+
+    /// The predictor behind this localiser.
+    pub fn predictor(&self) -> &Predictor {
+        &self.predictor
+    }
+}
+
+/// A prediction as correspondences, in its order.
+pub fn correspondences(
+    pred: &train::ImagePrediction,
+) -> (Vec<PointCorrespondence>, Vec<LineCorrespondence>) {
+    (
+        pred.points
+            .iter()
+            .map(|p| PointCorrespondence {
+                pixel: p.xy,
+                world: p.xyz,
+                reliability: p.reliability,
+            })
+            .collect(),
+        pred.lines
+            .iter()
+            .map(|l| LineCorrespondence {
+                segment: l.segment,
+                world: [
+                    l.start[0], l.start[1], l.start[2], l.end[0], l.end[1], l.end[2],
+                ],
+                reliability: l.reliability,
+            })
+            .collect(),
+    )
 }
 
 #[cfg(test)]

@@ -246,6 +246,8 @@ mod tests {
             line_inliers: 0,
             iterations: 0,
             ms: 0.0,
+            point_inlier_mask: vec![],
+            line_inlier_mask: vec![],
         };
         FrameResult {
             frame_id: 0,

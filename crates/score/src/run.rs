@@ -2,7 +2,7 @@
 //! correspond, estimate both poses, and write every output atomically.
 
 use crate::error::ScoreError;
-use crate::evaluate::{FrameResult, ScoreConfig, Variant, score_frame};
+use crate::evaluate::{FrameResult, ScoreConfig, Variant, measure};
 use crate::localiser::{Localiser, TestFrame, Timing, split_name};
 use crate::summary::{Summary, summarize_variant};
 use shards::{MANIFEST_FILE, shards_of_split};
@@ -67,7 +67,26 @@ pub fn run(
     localiser: &mut dyn Localiser,
     config: &ScoreConfig,
 ) -> Result<ScoreOutput, ScoreError> {
+    run_with_visual(shards_dir, out, localiser, config, false)
+}
+
+/// [`run`], and with `visual` also `visual.mcap` ([`crate::visual`]): every frame's
+/// image, estimated and ground-truth cameras and predictions, for Foxglove.
+pub fn run_with_visual(
+    shards_dir: &Path,
+    out: &Path,
+    localiser: &mut dyn Localiser,
+    config: &ScoreConfig,
+    visual: bool,
+) -> Result<ScoreOutput, ScoreError> {
     config.validate()?;
+    let mut visual = if visual {
+        Some(crate::visual::VisualWriter::create(
+            &out.join(crate::visual::VISUAL_FILE),
+        )?)
+    } else {
+        None
+    };
     let split = localiser.split();
     let paths = shard_paths(shards_dir, split)?;
     let shard_err = |source| ScoreError::Shards {
@@ -79,7 +98,8 @@ pub fn run(
     let mut results = Vec::with_capacity(reader.frame_count());
     let mut reader = reader;
     // A few frames per round, so a localiser can run their front-ends side by side
-    // (`Localiser::correspond_many`); results are the same as frame by frame.
+    // (`Localiser::correspond_each`) and their RANSAC too; results are the same as
+    // frame by frame.
     let round = 2 * rayon::current_num_threads().max(1);
     let mut frames = Vec::with_capacity(round);
     let mut read_ms = Vec::with_capacity(round);
@@ -104,14 +124,25 @@ pub fn run(
         if frames.is_empty() {
             break;
         }
-        let corrs = localiser.correspond_many(&frames)?;
-        for ((frame, corr), read_ms) in frames.iter().zip(&corrs).zip(&read_ms) {
-            let mut timings = vec![Timing {
-                step: "read".into(),
-                ms: *read_ms,
-            }];
-            timings.extend(corr.timings.iter().cloned());
-            results.push(score_frame(frame, corr, config, timings));
+        let before = read_ms
+            .iter()
+            .map(|&ms| {
+                vec![Timing {
+                    step: "read".into(),
+                    ms,
+                }]
+            })
+            .collect();
+        // The one localisation path (crate::localize); the first error in frame order
+        // stops the run.
+        let batch = crate::localize::localize_batch(localiser, &frames, before, config);
+        for (frame, l) in frames.iter().zip(batch) {
+            let mut l = l?;
+            measure(&mut l.result, frame.gt_pose());
+            if let Some(v) = visual.as_mut() {
+                v.add(frame, &l, Some(frame.gt_pose()), config)?;
+            }
+            results.push(l.result);
             bar.inc(1);
         }
     }
@@ -130,7 +161,10 @@ pub fn run(
             .map(|&v| summarize_variant(&results, v))
             .collect(),
     };
-    let files = write_outputs(out, &summary, &results)?;
+    let mut files = write_outputs(out, &summary, &results)?;
+    if let Some(v) = visual {
+        files.push(v.finish()?);
+    }
     Ok(ScoreOutput {
         summary,
         results,

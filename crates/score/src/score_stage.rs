@@ -11,7 +11,7 @@ use crate::error::ScoreError;
 use crate::evaluate::ScoreConfig;
 use crate::localiser::Localiser;
 use crate::oracle::OracleLocaliser;
-use crate::run::{SUMMARY_JSON_FILE, run as score_frames};
+use crate::run::{SUMMARY_JSON_FILE, run_with_visual as score_frames};
 use crate::summary::Summary;
 use serde::{Deserialize, Serialize};
 use shards::{Manifest, Split};
@@ -48,6 +48,12 @@ pub struct ScoreStageConfig {
     #[serde(skip_serializing_if = "Option::is_none")]
     #[arg(long)]
     pub max_iterations: Option<usize>,
+    /// Also write `visual.mcap` (every test frame's image, estimated and ground-truth
+    /// cameras, predicted points and lines, for Foxglove). Off by default: the other
+    /// outputs and the record are the same either way.
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    #[arg(long)]
+    pub visual: bool,
 }
 
 impl Default for ScoreStageConfig {
@@ -59,6 +65,7 @@ impl Default for ScoreStageConfig {
             line_threshold_px: 10.0,
             seed: 0,
             max_iterations: None,
+            visual: false,
         }
     }
 }
@@ -130,7 +137,28 @@ pub fn run(
     };
     let mut inputs = shard_inputs(shards_dir, split)?;
     inputs.insert("model".into(), source_hash);
-    Stage::new(STAGE, out, &resolved, inputs)?.run(
+    // The record's configuration is the resolved one, with `visual` only when on: a
+    // stage run without it records the same hash as before the option existed.
+    #[derive(Serialize)]
+    struct WithVisual<'a> {
+        #[serde(flatten)]
+        config: &'a ScoreConfig,
+        visual: bool,
+    }
+    let stage = if config.visual {
+        Stage::new(
+            STAGE,
+            out,
+            &WithVisual {
+                config: &resolved,
+                visual: true,
+            },
+            inputs,
+        )?
+    } else {
+        Stage::new(STAGE, out, &resolved, inputs)?
+    };
+    stage.run(
         |dir| {
             let summary = Summary::read_json(&dir.join(SUMMARY_JSON_FILE))?;
             Ok(ScoreStageOutput { summary, run: None })
@@ -150,7 +178,13 @@ pub fn run(
                 }
                 Source::Oracle => Box::new(OracleLocaliser),
             };
-            let result = score_frames(shards_dir, outputs.dir(), localiser.as_mut(), &resolved)?;
+            let result = score_frames(
+                shards_dir,
+                outputs.dir(),
+                localiser.as_mut(),
+                &resolved,
+                config.visual,
+            )?;
             for f in &result.files {
                 outputs.add(f)?;
             }

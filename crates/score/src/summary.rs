@@ -300,6 +300,8 @@ mod tests {
             line_inliers: 4,
             iterations: 1000,
             ms: 1.0,
+            point_inlier_mask: vec![],
+            line_inlier_mask: vec![],
         }
     }
 

@@ -170,6 +170,8 @@ mod tests {
             line_inliers: 7,
             iterations: 1000,
             ms: 3.0,
+            point_inlier_mask: vec![],
+            line_inlier_mask: vec![],
         };
         let failed = VariantResult {
             pose: None,
@@ -179,6 +181,8 @@ mod tests {
             line_inliers: 0,
             iterations: 0,
             ms: 0.1,
+            point_inlier_mask: vec![],
+            line_inlier_mask: vec![],
         };
         let t = |s: &str, ms| Timing { step: s.into(), ms };
         vec![

@@ -128,9 +128,31 @@ fn oracle_poses_are_accurate_and_outputs_repeat() {
     let png = image::open(out_a.join(PLOT_FILE)).unwrap();
     assert!(png.width() > 0);
 
-    // Deterministic: a second run writes the same bytes (the timings aside).
+    // Deterministic: a second run writes the same bytes (the timings aside), with the
+    // visual file or without.
     let out_b = dir.path().join("score_b");
-    score::run(&shards, &out_b, &mut OracleLocaliser, &config).expect("score again");
+    score::run::run_with_visual(&shards, &out_b, &mut OracleLocaliser, &config, true)
+        .expect("score again");
+    let visual = std::fs::read(out_b.join(score::visual::VISUAL_FILE)).unwrap();
+    let mut per_topic = std::collections::BTreeMap::<String, usize>::new();
+    for m in mcap::MessageStream::new(&visual).unwrap() {
+        *per_topic
+            .entry(m.unwrap().channel.topic.clone())
+            .or_default() += 1;
+    }
+    // Every frame: image, calibration, predictions, and on /tf the estimate and the
+    // ground truth (the oracle localises every frame).
+    let expected_topics: Vec<(String, usize)> = [
+        ("/camera/calibration", 24),
+        ("/camera/image", 24),
+        ("/predictions/lines", 24),
+        ("/predictions/points", 24),
+        ("/tf", 48),
+    ]
+    .iter()
+    .map(|(t, n)| (t.to_string(), *n))
+    .collect();
+    assert_eq!(per_topic.into_iter().collect::<Vec<_>>(), expected_topics);
     let mut names = vec![
         SUMMARY_MD_FILE.to_string(),
         SUMMARY_JSON_FILE.to_string(),

@@ -9,6 +9,8 @@ pub enum Command {
     Pose(super::bench_pose::Args),
     /// Front-end: SIFT, LSD and line sampling per image; images/s on 1 and 2 threads.
     Features(super::bench_features::Args),
+    /// Localisation: each phase's median ms per query, latency and queries/s on 1 and 2 threads.
+    Localize(super::bench_localize::Args),
     /// Frames/s of ingest + import + shard against decoding the images alone.
     Stages(super::bench_stages::Args),
 }
@@ -19,5 +21,6 @@ pub fn run(cmd: Command) -> anyhow::Result<()> {
         Command::Pose(a) => super::bench_pose::run(a),
         Command::Features(a) => super::bench_features::run(a),
         Command::Stages(a) => super::bench_stages::run(a),
+        Command::Localize(a) => super::bench_localize::run(a),
     }
 }

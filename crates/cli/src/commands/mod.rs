@@ -1,6 +1,7 @@
 pub mod bench;
 pub mod bench_colmap;
 pub mod bench_features;
+pub mod bench_localize;
 pub mod bench_pose;
 pub mod bench_stages;
 pub mod colmap;
@@ -9,6 +10,7 @@ pub mod flags;
 pub mod import;
 pub mod ingest;
 pub mod limap;
+pub mod localize;
 pub mod pose;
 pub mod refine;
 pub mod run;

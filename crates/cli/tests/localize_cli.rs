@@ -1,0 +1,428 @@
+//! `pl2map localize` through the built binary:
+//! - on the tiny synthetic scene's images, the same poses, bit for bit, as the score
+//!   stage with the same model and seed, for any thread count;
+//! - bad queries (missing image, bad camera line, image of another size) are named with
+//!   their file and line, the others localised, the exit status non-zero;
+//! - a query list in hloc's format over the real 7-Scenes sample frames, whose results
+//!   file is read back the way hloc's evaluation reads it (Python), and the `--visual`
+//!   MCAP read with Python's `mcap` library.
+//!
+//! The model is trained for a few iterations only: these tests check the localisation
+//! path and the files, not the accuracy.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+use std::sync::OnceLock;
+
+fn pl2map() -> Command {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_pl2map"));
+    c.arg("--quiet");
+    c
+}
+
+fn ok(out: Output, what: &str) -> String {
+    assert!(
+        out.status.success(),
+        "{what} failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8(out.stdout).unwrap()
+}
+
+/// RANSAC iterations at most: a barely trained model leaves few inliers.
+const MAX_ITERATIONS: &str = "300";
+
+struct Scene {
+    root: PathBuf,
+    scene: PathBuf,
+    frames: tables::FramesTable,
+    model: PathBuf,
+    score: PathBuf,
+}
+
+/// synth --tiny -> ingest -> import -> shard -> train (3 iterations) -> score, once
+/// for every test of this file.
+fn scene() -> &'static Scene {
+    static SCENE: OnceLock<Scene> = OnceLock::new();
+    SCENE.get_or_init(|| {
+        let root = tempfile::tempdir().unwrap().keep();
+        ok(
+            pl2map()
+                .arg("synth")
+                .arg(root.join("data"))
+                .arg("--tiny")
+                .output()
+                .unwrap(),
+            "synth",
+        );
+        let scene = root.join("data/synthroom");
+        ok(
+            pl2map()
+                .args(["ingest", "--dataset", "7scenes", "--root"])
+                .arg(&scene)
+                .arg("--out")
+                .arg(root.join("frames"))
+                .output()
+                .unwrap(),
+            "ingest",
+        );
+        let frames_path = root.join("frames/frames.parquet");
+        ok(
+            pl2map()
+                .arg("import")
+                .arg("--frames")
+                .arg(&frames_path)
+                .arg("--model")
+                .arg(scene.join("sfm_gt/colmap"))
+                .arg("--limap")
+                .arg(scene.join("sfm_gt/limap"))
+                .arg("--out")
+                .arg(root.join("labels"))
+                .output()
+                .unwrap(),
+            "import",
+        );
+        ok(
+            pl2map()
+                .arg("shard")
+                .arg("--frames")
+                .arg(&frames_path)
+                .arg("--labels")
+                .arg(root.join("labels"))
+                .arg("--out")
+                .arg(root.join("shards"))
+                .output()
+                .unwrap(),
+            "shard",
+        );
+        ok(
+            pl2map()
+                .arg("train")
+                .arg("--shards")
+                .arg(root.join("shards"))
+                .arg("--out")
+                .arg(root.join("train"))
+                .args(["--iterations", "3", "--checkpoint-every", "3"])
+                .output()
+                .unwrap(),
+            "train",
+        );
+        let model = root.join("train/model.ckpt");
+        ok(
+            pl2map()
+                .arg("score")
+                .arg("--shards")
+                .arg(root.join("shards"))
+                .arg("--checkpoint")
+                .arg(&model)
+                .arg("--out")
+                .arg(root.join("score"))
+                .args(["--max-iterations", MAX_ITERATIONS])
+                .output()
+                .unwrap(),
+            "score",
+        );
+        Scene {
+            frames: tables::FramesTable::read_parquet(&frames_path).unwrap(),
+            score: root.join("score"),
+            root,
+            scene,
+            model,
+        }
+    })
+}
+
+/// `name MODEL W H PARAMS...` of a camera, numbers in round-trip form.
+fn camera_spec(c: &geometry::Camera) -> String {
+    let mut s = format!("{} {} {}", c.model.name(), c.width, c.height);
+    for p in &c.params {
+        s.push_str(&format!(" {p}"));
+    }
+    s
+}
+
+fn localize(list: &Path, images: &Path, out: &Path, threads: usize) -> Output {
+    pl2map()
+        .env("RAYON_NUM_THREADS", threads.to_string())
+        .arg("localize")
+        .arg("--checkpoint")
+        .arg(&scene().model)
+        .arg("--queries")
+        .arg(list)
+        .arg("--images")
+        .arg(images)
+        .arg("--out")
+        .arg(out)
+        .args(["--max-iterations", MAX_ITERATIONS])
+        .output()
+        .unwrap()
+}
+
+fn lines_of(path: &Path) -> Vec<String> {
+    std::fs::read_to_string(path)
+        .unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+        .lines()
+        .map(str::to_string)
+        .collect()
+}
+
+#[test]
+fn same_poses_as_the_score_stage_for_any_thread_count() {
+    let s = scene();
+    // Every frame in frames-table order: a query's position is its frame id, the
+    // RANSAC seed key of both commands.
+    let mut list = String::from("# the tiny synthetic scene\n");
+    for (i, f) in s.frames.frames.iter().enumerate() {
+        assert_eq!(f.id as usize, i);
+        list.push_str(&format!("{} {}\n", f.name, camera_spec(&f.camera)));
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let list_path = dir.path().join("queries_with_intrinsics.txt");
+    std::fs::write(&list_path, list).unwrap();
+    let one = dir.path().join("one");
+    let two = dir.path().join("two");
+    let stdout = ok(
+        localize(&list_path, &s.scene, &one, 1),
+        "localize (1 thread)",
+    );
+    assert!(stdout.contains("0 bad input"), "{stdout}");
+    ok(
+        localize(&list_path, &s.scene, &two, 2),
+        "localize (2 threads)",
+    );
+    let results = lines_of(&one.join("results.txt"));
+    assert_eq!(
+        std::fs::read(one.join("results.txt")).unwrap(),
+        std::fs::read(two.join("results.txt")).unwrap(),
+        "results differ between 1 and 2 threads"
+    );
+    // The score stage's points + lines poses of the test frames, line for line.
+    let scored = lines_of(&s.score.join("results_points_lines.txt"));
+    assert!(!scored.is_empty(), "the score stage localised no frame");
+    let test_names: Vec<&str> = s
+        .frames
+        .frames
+        .iter()
+        .filter(|f| f.split == tables::Split::Test)
+        .map(|f| f.name.as_str())
+        .collect();
+    let localized_test: Vec<&String> = results
+        .iter()
+        .filter(|l| test_names.contains(&l.split(' ').next().unwrap()))
+        .collect();
+    assert_eq!(localized_test.len(), scored.len());
+    for (a, b) in localized_test.iter().zip(&scored) {
+        assert_eq!(*a, b, "localize and score disagree");
+    }
+    // The table: one row per query, every one read.
+    let table = lines_of(&one.join("per_image.csv"));
+    assert_eq!(table.len(), 1 + s.frames.frames.len());
+    assert!(table[0].starts_with("id,name,origin,status,"));
+    assert!(!table.iter().any(|l| l.contains("bad_input")));
+}
+
+#[test]
+fn bad_queries_are_named_and_the_others_localised() {
+    let s = scene();
+    let dir = tempfile::tempdir().unwrap();
+    let good = &s.frames.frames[24];
+    let cam = camera_spec(&good.camera);
+    // Line 2: good; 3: missing image; 4: unparsable camera; 5: another size; 6: not an
+    // image; 7: line 2's name again.
+    std::fs::write(dir.path().join("notes.png"), b"not an image").unwrap();
+    let other = &s.frames.frames[25];
+    for copy in ["copy.png", "copy2.png"] {
+        std::fs::copy(s.scene.join(&other.name), dir.path().join(copy)).unwrap();
+    }
+    std::fs::create_dir_all(dir.path().join(good.name.rsplit_once('/').unwrap().0)).unwrap();
+    std::fs::copy(s.scene.join(&good.name), dir.path().join(&good.name)).unwrap();
+    let wrong_size = format!(
+        "PINHOLE {} {} 100 100 50 50",
+        good.camera.width * 2,
+        good.camera.height
+    );
+    let list = format!(
+        "# queries\n{g} {cam}\nmissing.png {cam}\ncopy.png SIMPLE_PINHOLE 640 x 1\n\
+         copy2.png {wrong_size}\nnotes.png {cam}\n{g} {cam}\n",
+        g = good.name
+    );
+    let list_path = dir.path().join("q.txt");
+    std::fs::write(&list_path, list).unwrap();
+    let out = dir.path().join("out");
+    let o = localize(&list_path, dir.path(), &out, 2);
+    assert!(!o.status.success(), "bad queries must fail the command");
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(stderr.contains("5 of 6 queries"), "{stderr}");
+    let table = std::fs::read_to_string(out.join("per_image.csv")).unwrap();
+    let rows: Vec<&str> = table.lines().collect();
+    assert_eq!(rows.len(), 7, "{table}");
+    let q = list_path.display().to_string();
+    assert!(!rows[1].contains("bad_input"), "{}", rows[1]);
+    for (row, (line, what)) in rows[2..].iter().zip([
+        (3, "missing.png"),
+        (4, "height"),
+        (5, "camera says"),
+        (6, "neither a PNG nor a JPEG"),
+        (7, "listed twice (first at line 2)"),
+    ]) {
+        assert!(
+            row.contains("bad_input") && row.contains(&format!("{q}:{line}")) && row.contains(what),
+            "line {line}: {row}"
+        );
+    }
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(stdout.contains(&format!("{q}:3")), "{stdout}");
+    // The good query's pose is written.
+    let results = lines_of(&out.join("results.txt"));
+    assert!(results.len() <= 1);
+    if let Some(r) = results.first() {
+        assert!(r.starts_with(&good.name));
+    }
+}
+
+#[test]
+fn real_7scenes_queries_give_a_results_file_hloc_reads() {
+    let Some(stairs) = testkit::sample::sample_data("7scenes-stairs-mini/stairs") else {
+        return;
+    };
+    let s = scene();
+    // hloc's 7-Scenes query list: the test sequences, PINHOLE with the dataset's focal.
+    let mut names = Vec::new();
+    for seq in ["seq-01", "seq-04"] {
+        let mut v: Vec<String> = std::fs::read_dir(stairs.join(seq))
+            .unwrap()
+            .filter_map(|e| {
+                let n = e.unwrap().file_name().to_string_lossy().into_owned();
+                n.ends_with(".color.jpg").then(|| format!("{seq}/{n}"))
+            })
+            .collect();
+        v.sort();
+        names.extend(v);
+    }
+    assert!(!names.is_empty());
+    let dir = tempfile::tempdir().unwrap();
+    let list: String = names
+        .iter()
+        .map(|n| format!("{n} PINHOLE 640 480 525 525 320 240\n"))
+        .collect();
+    let list_path = dir.path().join("queries_with_intrinsics.txt");
+    std::fs::write(&list_path, list).unwrap();
+    let out = dir.path().join("out");
+    let stdout = ok(
+        pl2map()
+            .arg("localize")
+            .arg("--checkpoint")
+            .arg(&s.model)
+            .arg("--queries")
+            .arg(&list_path)
+            .arg("--images")
+            .arg(&stairs)
+            .arg("--out")
+            .arg(&out)
+            .args(["--max-iterations", MAX_ITERATIONS, "--visual"])
+            .output()
+            .unwrap(),
+        "localize (7-Scenes)",
+    );
+    assert!(
+        stdout.contains(&format!("{} queries", names.len())),
+        "{stdout}"
+    );
+    let results = out.join("results.txt");
+    let n_results = lines_of(&results).len();
+    let Some(python) = testkit::python::python(&["numpy", "mcap"]) else {
+        return;
+    };
+    // hloc's evaluation: split each line, name then 7 floats, q -> R (w first).
+    let script = r#"
+import sys, numpy as np
+from mcap.reader import make_reader
+results, names, visual = sys.argv[1], sys.argv[2].split(","), sys.argv[3]
+def qvec2rotmat(q):
+    w, x, y, z = q
+    return np.array([
+        [1 - 2*y*y - 2*z*z, 2*x*y - 2*w*z, 2*z*x + 2*w*y],
+        [2*x*y + 2*w*z, 1 - 2*x*x - 2*z*z, 2*y*z - 2*w*x],
+        [2*z*x - 2*w*y, 2*y*z + 2*w*x, 1 - 2*x*x - 2*y*y]])
+predictions = {}
+text = open(results).read().rstrip()
+for data in (text.split("\n") if text else []):
+    data = data.split()
+    name = data[0]
+    q, t = np.split(np.array(data[1:], float), [4])
+    R = qvec2rotmat(q)
+    assert abs(np.linalg.det(R) - 1) < 1e-9, name
+    assert np.allclose(R @ R.T, np.eye(3), atol=1e-9), name
+    assert t.shape == (3,) and np.all(np.isfinite(t)), name
+    predictions[name] = (R, t)
+assert set(predictions) <= set(names), set(predictions) - set(names)
+counts, schemas = {}, {}
+with open(visual, "rb") as f:
+    for schema, channel, message in make_reader(f).iter_messages():
+        counts[channel.topic] = counts.get(channel.topic, 0) + 1
+        schemas[channel.topic] = (schema.name, schema.encoding, channel.message_encoding)
+print(len(predictions))
+for topic in sorted(counts):
+    print(topic, counts[topic], *schemas[topic])
+"#;
+    let stdout = testkit::python::run(
+        Command::new(&python)
+            .arg("-c")
+            .arg(script)
+            .arg(&results)
+            .arg(names.join(","))
+            .arg(out.join("visual.mcap")),
+    );
+    let stdout = String::from_utf8(stdout).unwrap();
+    let mut lines = stdout.lines();
+    assert_eq!(lines.next().unwrap().parse::<usize>().unwrap(), n_results);
+    let channels: Vec<&str> = lines.collect();
+    let n = names.len();
+    let posed = n_results; // one /tf per estimated pose (points + lines, else points)
+    let expected = [
+        format!("/camera/calibration {n} foxglove.CameraCalibration protobuf protobuf"),
+        format!("/camera/image {n} foxglove.CompressedImage protobuf protobuf"),
+        format!("/predictions/lines {n} foxglove.SceneUpdate protobuf protobuf"),
+        format!("/predictions/points {n} foxglove.PointCloud protobuf protobuf"),
+    ];
+    for e in &expected {
+        assert!(channels.contains(&e.as_str()), "{e} not in {channels:?}");
+    }
+    // /tf: one per pose shown (none without ground truth here); absent when no query
+    // got a pose.
+    let tf = channels.iter().find(|c| c.starts_with("/tf "));
+    if posed > 0 {
+        let tf = tf.expect("a /tf channel");
+        let count: usize = tf.split(' ').nth(1).unwrap().parse().unwrap();
+        assert!(count >= posed, "{tf}");
+    }
+}
+
+#[test]
+fn a_folder_with_one_camera() {
+    let s = scene();
+    let dir = tempfile::tempdir().unwrap();
+    let f = &s.frames.frames[26];
+    std::fs::copy(s.scene.join(&f.name), dir.path().join("a.png")).unwrap();
+    let out = dir.path().join("out");
+    let stdout = ok(
+        pl2map()
+            .arg("localize")
+            .arg("--checkpoint")
+            .arg(&s.model)
+            .arg("--camera")
+            .arg(camera_spec(&f.camera))
+            .arg("--images")
+            .arg(dir.path())
+            .arg("--out")
+            .arg(&out)
+            .args(["--lines", "off", "--max-iterations", MAX_ITERATIONS])
+            .output()
+            .unwrap(),
+        "localize a folder",
+    );
+    assert!(stdout.contains("1 queries"), "{stdout}");
+    let table = lines_of(&out.join("per_image.csv"));
+    assert!(table[1].starts_with("0,a.png,"), "{}", table[1]);
+    let _ = &s.root;
+}
