@@ -426,3 +426,82 @@ fn a_folder_with_one_camera() {
     assert!(table[1].starts_with("0,a.png,"), "{}", table[1]);
     let _ = &s.root;
 }
+
+/// Query lines from LIMAP-format segment files (`pl2map score --query-segments`): files
+/// holding exactly the segments the model's own line detector finds give the score
+/// stage's poses bit for bit; the summary says where the lines came from; a test frame
+/// missing from the files is named.
+#[test]
+fn query_segments_from_limap_files() {
+    let s = scene();
+    let predictor = train::Predictor::load(&s.model).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let limap_dir = dir.path().join("limap-queries");
+    let segments_dir = limap_dir.join("line_detections/lsd/segments");
+    std::fs::create_dir_all(&segments_dir).unwrap();
+    let test: Vec<&tables::Frame> = s
+        .frames
+        .frames
+        .iter()
+        .filter(|f| f.split == tables::Split::Test)
+        .collect();
+    let mut list = format!("number of images, {}\n", test.len());
+    for (k, f) in test.iter().enumerate() {
+        let id = k + 1;
+        list.push_str(&format!("{id}, {}\n", f.name));
+        let gray = features::load_gray(&s.scene.join(&f.name)).unwrap();
+        let segments = predictor.front_end().segments(&gray).unwrap();
+        // Round-trip numbers: the file holds the detector's segments exactly.
+        let mut text = format!("{}\n", segments.len());
+        for seg in &segments {
+            text.push_str(&format!(
+                "{:?} {:?} {:?} {:?}\n",
+                seg[0], seg[1], seg[2], seg[3]
+            ));
+        }
+        std::fs::write(segments_dir.join(format!("segments_{id}.txt")), text).unwrap();
+    }
+    std::fs::write(limap_dir.join("image_list.txt"), list).unwrap();
+    let score = |out: &Path| {
+        pl2map()
+            .arg("score")
+            .arg("--shards")
+            .arg(s.root.join("shards"))
+            .arg("--checkpoint")
+            .arg(&s.model)
+            .arg("--out")
+            .arg(out)
+            .args(["--max-iterations", MAX_ITERATIONS])
+            .arg("--query-segments")
+            .arg(&limap_dir)
+            .output()
+            .unwrap()
+    };
+    let out = dir.path().join("score");
+    ok(score(&out), "score with query segments");
+    assert_eq!(
+        std::fs::read(out.join("results_points_lines.txt")).unwrap(),
+        std::fs::read(s.score.join("results_points_lines.txt")).unwrap()
+    );
+    let summary = std::fs::read_to_string(out.join("summary.md")).unwrap();
+    assert!(
+        summary.contains("query lines from the segment files"),
+        "{summary}"
+    );
+
+    // One test frame's file removed: that frame fails with its name, the others do not.
+    std::fs::remove_file(segments_dir.join("segments_1.txt")).unwrap();
+    let out = dir.path().join("score-missing");
+    let o = score(&out);
+    let text = format!(
+        "{}{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let summary = std::fs::read_to_string(out.join("summary.md")).unwrap_or_default();
+    assert!(
+        text.contains(&format!("no segments for {}", test[0].name))
+            || summary.contains(&format!("no segments for {}", test[0].name)),
+        "{text}\n{summary}"
+    );
+}

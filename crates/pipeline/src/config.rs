@@ -293,11 +293,18 @@ impl Pipeline {
             t.validate()
                 .map_err(|e| r.section("train", e.to_string()))?;
         }
-        if let Some(score) = &file.score {
+        if let Some(score) = &mut file.score {
             score
                 .resolve()
                 .validate()
                 .map_err(|e| r.section("score", e.to_string()))?;
+            if let Some(q) = &score.query_segments {
+                let key = ["score", "query_segments"];
+                let q = q
+                    .to_str()
+                    .ok_or_else(|| r.value(&key, "path is not valid UTF-8".into()))?;
+                score.query_segments = Some(r.path(&key, q)?);
+            }
         }
         Ok(Pipeline {
             origin: origin.to_path_buf(),

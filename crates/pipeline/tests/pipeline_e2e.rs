@@ -204,6 +204,7 @@ fn committed_pipeline_files_resolve() {
             ("PL2MAP_CAMBRIDGE", "/data/cambridge"),
             ("PL2MAP_HLOC", "/out/hloc"),
             ("PL2MAP_LIMAP", "/out/limap"),
+            ("PL2MAP_SUPERPOINT_WEIGHTS", "/weights/superpoint_v1.pth"),
         ] {
             std::env::set_var(k, v);
         }
@@ -251,6 +252,40 @@ fn committed_pipeline_files_resolve() {
     assert!(d.file.train.is_some() && d.file.score.is_some());
     let t = Pipeline::load(&tiny_pipeline()).unwrap();
     assert!(t.synth.as_ref().unwrap().tiny);
+    // The paper's recipes: SuperPoint at D = 256, the graph network, alltracks, the
+    // reference's schedule and reprojection scale per dataset.
+    for (file, tau_max, learning_rate, iterations) in [
+        ("7scenes-paper.toml", 50.0, 3e-4, 1_500_000),
+        ("cambridge-paper.toml", 100.0, 1e-4, 1_000_000),
+    ] {
+        let p = Pipeline::load_unit(&dir.join(file), None, Some("chess")).unwrap();
+        let train = p.file.train.as_ref().unwrap();
+        assert_eq!(
+            train.front_end.kind,
+            features::FrontEndKind::Superpoint,
+            "{file}"
+        );
+        assert_eq!(
+            train.front_end.superpoint.weights,
+            Some(PathBuf::from("/weights/superpoint_v1.pth"))
+        );
+        assert_eq!(train.model.descriptor_dim, 256, "{file}");
+        assert_eq!(train.model.layers.len(), 5, "{file}");
+        assert_eq!(train.loss.tau_max, tau_max, "{file}");
+        assert_eq!(train.learning_rate, learning_rate, "{file}");
+        assert_eq!(train.iterations, iterations, "{file}");
+        assert_eq!(train.batch_frames, 1, "{file}");
+        assert_eq!(
+            p.import.line_tracks,
+            labels::import::LineTrackSet::Alltracks,
+            "{file}"
+        );
+        let score = p.file.score.as_ref().unwrap();
+        assert_eq!(
+            (score.point_threshold_px, score.line_threshold_px),
+            (12.0, 10.0)
+        );
+    }
 }
 
 /// `--shards` work units of the shard stage through `pl2map run`: the unit that completes

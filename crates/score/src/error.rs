@@ -46,6 +46,9 @@ pub enum ScoreError {
     NameWithSpace { frame_id: u64, name: String },
     #[error("network {}: {reason}", checkpoint.display())]
     Network { checkpoint: PathBuf, reason: String },
+    /// The query segments folder (`query_segments`) cannot be read.
+    #[error("query segments {}: {reason}", dir.display())]
+    QuerySegments { dir: PathBuf, reason: String },
     /// A checkpoint that does not load (the reason names the file).
     #[error("network: {reason}")]
     Model { reason: String },

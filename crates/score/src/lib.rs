@@ -12,6 +12,8 @@
 //! - [`localize`]: the localisation path the stage shares with `pl2map localize`
 //!   (correspondences, then [`evaluate::localize_frame`] for a batch of frames side by
 //!   side), hloc query lists, the per-image table and `localize::run`.
+//! - [`query_lines`]: test images' segments from a LIMAP-format folder (the map's line
+//!   detector run on the queries) instead of the front-end's detector.
 //! - [`visual`]: `visual.mcap` for Foxglove (the score stage's `visual`, `pl2map
 //!   localize --visual`).
 //! - [`run()`]: the stage. Outputs in the output folder, each written atomically:
@@ -33,6 +35,7 @@ pub mod localize;
 pub mod network;
 pub mod oracle;
 pub mod plot;
+pub mod query_lines;
 pub mod run;
 pub mod score_stage;
 pub mod summary;

@@ -6,6 +6,7 @@ use crate::error::ScoreError;
 use crate::localiser::{
     Correspondences, LineCorrespondence, Localiser, PointCorrespondence, TestFrame, Timing,
 };
+use crate::query_lines::QuerySegments;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 use train::Predictor;
@@ -14,6 +15,8 @@ use train::Predictor;
 pub struct NetworkLocaliser {
     predictor: Predictor,
     checkpoint: PathBuf,
+    /// Query segments from files instead of the front-end's line detector.
+    query_segments: Option<QuerySegments>,
 }
 
 impl NetworkLocaliser {
@@ -26,7 +29,15 @@ impl NetworkLocaliser {
         Ok(NetworkLocaliser {
             predictor,
             checkpoint: checkpoint.to_path_buf(),
+            query_segments: None,
         })
+    }
+
+    /// Takes each test frame's segments from `segments` (by image name) instead of the
+    /// front-end's line detector; a frame without segments there fails with a reason.
+    pub fn with_query_segments(mut self, segments: QuerySegments) -> Self {
+        self.query_segments = Some(segments);
+        self
     }
 
     /// A localiser over a predictor built elsewhere (`name` stands for the checkpoint in
@@ -35,6 +46,7 @@ impl NetworkLocaliser {
         NetworkLocaliser {
             predictor,
             checkpoint: name.into(),
+            query_segments: None,
         }
     }
 
@@ -53,11 +65,23 @@ fn ms_since(t: Instant) -> f64 {
 
 impl Localiser for NetworkLocaliser {
     fn describe(&self) -> String {
-        format!("network: checkpoint {}", self.checkpoint.display())
+        let lines = match &self.query_segments {
+            // Said only when not the default, so default summaries keep their bytes.
+            Some(q) => format!(
+                "; query lines from the segment files in {}",
+                q.segments_dir.display()
+            ),
+            None => String::new(),
+        };
+        format!("network: checkpoint {}{lines}", self.checkpoint.display())
     }
 
     fn correspond(&mut self, frame: &TestFrame) -> Result<Correspondences, ScoreError> {
-        let front = front_end(self.predictor.front_end(), frame)?;
+        let front = front_end(
+            self.predictor.front_end(),
+            self.query_segments.as_ref(),
+            frame,
+        )?;
         self.finish(frame, front)
     }
 
@@ -69,8 +93,9 @@ impl Localiser for NetworkLocaliser {
     ) -> Vec<Result<Correspondences, ScoreError>> {
         use rayon::prelude::*;
         let fe = self.predictor.front_end();
+        let q = self.query_segments.as_ref();
         let fronts: Vec<Result<FrontEnd, ScoreError>> =
-            frames.par_iter().map(|f| front_end(fe, f)).collect();
+            frames.par_iter().map(|f| front_end(fe, q, f)).collect();
         frames
             .iter()
             .zip(fronts)
@@ -86,7 +111,11 @@ struct FrontEnd {
     front_end_ms: f64,
 }
 
-fn front_end(fe: &dyn features::FrontEnd, frame: &TestFrame) -> Result<FrontEnd, ScoreError> {
+fn front_end(
+    fe: &dyn features::FrontEnd,
+    query_segments: Option<&QuerySegments>,
+    frame: &TestFrame,
+) -> Result<FrontEnd, ScoreError> {
     let t = Instant::now();
     let gray = frame.gray_image()?;
     let decode_ms = ms_since(t);
@@ -105,9 +134,28 @@ fn front_end(fe: &dyn features::FrontEnd, frame: &TestFrame) -> Result<FrontEnd,
     }
     // Front-end and network timed apart: `Predictor::predict` is exactly these two.
     let t = Instant::now();
-    let features = fe
-        .extract(&gray)
-        .map_err(|e| NetworkLocaliser::frame_err(frame, format!("front-end: {e}")))?;
+    let fe_err =
+        |e: features::FeatureError| NetworkLocaliser::frame_err(frame, format!("front-end: {e}"));
+    let features = match query_segments {
+        None => fe.extract(&gray).map_err(fe_err)?,
+        // The keypoints as always; the lines the map's detector found on this image.
+        Some(q) => {
+            let segments = q
+                .get(frame.name())
+                .map_err(|reason| NetworkLocaliser::frame_err(frame, reason))?
+                .to_vec();
+            let det = fe.detect(&gray).map_err(fe_err)?;
+            let line_descriptors = fe.describe_lines(&gray, &segments).map_err(fe_err)?;
+            features::ImageFeatures {
+                keypoints: det.keypoints,
+                descriptors: det.descriptors,
+                segments,
+                line_descriptors,
+                samples_per_line: fe.samples_per_line(),
+                dim: fe.dim(),
+            }
+        }
+    };
     Ok(FrontEnd {
         features,
         decode_ms,

@@ -54,6 +54,21 @@ pub struct ScoreStageConfig {
     #[serde(skip_serializing_if = "std::ops::Not::not")]
     #[arg(long)]
     pub visual: bool,
+    /// Test images' segments from a LIMAP-format folder (`image_list.txt` and
+    /// `segments_<id>.txt`: the map's line detector run on the queries) instead of the
+    /// front-end's line detector (query_lines.rs).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    #[arg(long)]
+    pub query_segments: Option<PathBuf>,
+    /// `query_segments` coordinates times this are pixels (LIMAP detects on images
+    /// resized to `max_image_dim`).
+    #[serde(skip_serializing_if = "is_one")]
+    #[arg(long, default_value_t = ScoreStageConfig::default().query_segment_scale)]
+    pub query_segment_scale: f64,
+}
+
+fn is_one(v: &f64) -> bool {
+    *v == 1.0
 }
 
 impl Default for ScoreStageConfig {
@@ -66,6 +81,8 @@ impl Default for ScoreStageConfig {
             seed: 0,
             max_iterations: None,
             visual: false,
+            query_segments: None,
+            query_segment_scale: 1.0,
         }
     }
 }
@@ -137,6 +154,15 @@ pub fn run(
     };
     let mut inputs = shard_inputs(shards_dir, split)?;
     inputs.insert("model".into(), source_hash);
+    // Read before the record check: the segments' content is an input of the record.
+    let query_segments = match &config.query_segments {
+        Some(dir) => {
+            let q = crate::query_lines::QuerySegments::load(dir, config.query_segment_scale)?;
+            inputs.insert("query_segments".into(), q.sha256.clone());
+            Some(q)
+        }
+        None => None,
+    };
     // The record's configuration is the resolved one, with `visual` only when on: a
     // stage run without it records the same hash as before the option existed.
     #[derive(Serialize)]
@@ -166,7 +192,13 @@ pub fn run(
         |outputs| {
             let mut localiser: Box<dyn Localiser> = match source {
                 #[cfg(feature = "network")]
-                Source::Network(model) => Box::new(crate::NetworkLocaliser::load(model)?),
+                Source::Network(model) => {
+                    let mut l = crate::NetworkLocaliser::load(model)?;
+                    if let Some(q) = query_segments.clone() {
+                        l = l.with_query_segments(q);
+                    }
+                    Box::new(l)
+                }
                 #[cfg(not(feature = "network"))]
                 Source::Network(model) => {
                     return Err(ScoreError::Network {
