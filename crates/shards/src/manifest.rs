@@ -37,6 +37,10 @@ pub struct Manifest {
     pub config_hash: String,
     /// Input name -> content hash (frames table, label tables ...), from the caller.
     pub inputs: BTreeMap<String, String>,
+    /// The label tables' LIMAP track set when not finaltracks (`alltracks`): written
+    /// only then, so manifests of the default keep their bytes.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub line_tracks: Option<String>,
     /// Shards in the whole run's plan, and frames in them: a unit's manifest holds a
     /// range of the shards but describes the same run.
     pub planned_shards: usize,
@@ -179,6 +183,7 @@ mod tests {
             tool_version: "0.1.0".into(),
             config_hash: "c".into(),
             inputs: BTreeMap::from([("frames".into(), "f".into())]),
+            line_tracks: None,
             planned_shards: 3,
             planned_frames: 30,
             shards,

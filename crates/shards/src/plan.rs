@@ -167,6 +167,7 @@ pub fn write_shards(
         tool_version: env!("CARGO_PKG_VERSION").to_string(),
         config_hash: job.config_hash.clone(),
         inputs: job.inputs.clone(),
+        line_tracks: None,
         planned_shards: count,
         planned_frames: job.plans.iter().map(|p| p.frame_ids.len() as u64).sum(),
         shards: written.into_iter().map(|(s, _)| s).collect(),

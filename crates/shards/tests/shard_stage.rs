@@ -342,3 +342,43 @@ fn refuses_labels_that_miss_training_frames() {
          (first Some(2)), 0 labelled frame(s) that are not training frames (first None)"
     );
 }
+
+/// The label tables' track set reaches the manifest: named for alltracks, absent (and
+/// the manifest's bytes as before) for the default finaltracks.
+#[test]
+fn the_manifest_records_the_line_track_set() {
+    let scene = scene_with_labels();
+    let alltracks = ImportConfig {
+        line_tracks: import::LineTrackSet::Alltracks,
+        ..Default::default()
+    };
+    import::run(
+        &scene.with_inputs(&alltracks),
+        &scene.frames_path,
+        &scene.out("labels-all"),
+    )
+    .unwrap();
+    let tables = LabelTables::read(&scene.out("labels-all")).unwrap();
+    assert_eq!(tables.line_tracks.as_deref(), Some("alltracks"));
+    let run = |labels: &str, out: &str| {
+        shard_stage::run(
+            &config(4),
+            &scene.frames_path,
+            &scene.out(labels),
+            &scene.out(out),
+            None,
+        )
+        .unwrap()
+        .output
+        .manifest
+    };
+    let all = run("labels-all", "shards-all");
+    assert_eq!(all.line_tracks.as_deref(), Some("alltracks"));
+    let on_disk = Manifest::load(scene.out("shards-all").join(shard_stage::MANIFEST_FILE)).unwrap();
+    assert_eq!(on_disk.line_tracks.as_deref(), Some("alltracks"));
+    let fin = run("labels", "shards-final");
+    assert_eq!(fin.line_tracks, None);
+    let text = std::fs::read_to_string(scene.out("shards-final").join(shard_stage::MANIFEST_FILE))
+        .unwrap();
+    assert!(!text.contains("line_tracks"), "{text}");
+}

@@ -32,7 +32,9 @@
 //!
 //! Every file carries key-value metadata: [`VERSION_KEY`], [`SOURCE_KEY`] (`sfm` or
 //! `depth-refined`), [`FRAMES_KEY`] (sha256 of the frames table they were made from;
-//! the shard stage refuses a different one) and [`POSE_SOURCE_KEY`].
+//! the shard stage refuses a different one) and [`POSE_SOURCE_KEY`]; [`LINE_TRACKS_KEY`]
+//! when the line labels come from another track set than LIMAP's finaltracks (written
+//! only then, so tables of the default keep their bytes).
 
 use crate::parquet::{Cols, TableError, f64_list_column, read_parquet, write_parquet};
 use geometry::{Camera, CameraModel, Pose, UnitQuaternion, Vector3};
@@ -51,6 +53,7 @@ pub const TABLE_VERSION: &str = "1";
 pub const SOURCE_KEY: &str = "pl2map.labels.source";
 pub const FRAMES_KEY: &str = "pl2map.labels.frames_sha256";
 pub const POSE_SOURCE_KEY: &str = "pl2map.labels.pose_source";
+pub const LINE_TRACKS_KEY: &str = "pl2map.labels.line_tracks";
 
 /// Where the 3D labels come from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
@@ -165,6 +168,8 @@ pub struct LabelTables {
     pub pose_source: PoseSource,
     /// sha256 of the frames table the labels were made from.
     pub frames_sha256: String,
+    /// The LIMAP track set of the line labels when not finaltracks (`alltracks`).
+    pub line_tracks: Option<String>,
     pub points: Vec<PointRow>,
     pub lines: Vec<LineRow>,
     pub poses: Vec<PoseRow>,
@@ -177,7 +182,7 @@ fn opt(v: Option<[f64; 3]>, k: usize) -> Option<f64> {
 impl LabelTables {
     /// The key-value metadata, in the order it is written (sorted by key).
     fn metadata(&self) -> Vec<(String, String)> {
-        let sorted = BTreeMap::from([
+        let mut sorted = BTreeMap::from([
             (VERSION_KEY.to_string(), TABLE_VERSION.to_string()),
             (SOURCE_KEY.to_string(), self.source.as_str().to_string()),
             (FRAMES_KEY.to_string(), self.frames_sha256.clone()),
@@ -186,6 +191,9 @@ impl LabelTables {
                 self.pose_source.as_str().to_string(),
             ),
         ]);
+        if let Some(t) = &self.line_tracks {
+            sorted.insert(LINE_TRACKS_KEY.to_string(), t.clone());
+        }
         sorted.into_iter().collect()
     }
 
@@ -403,6 +411,7 @@ impl LabelTables {
             source,
             pose_source,
             frames_sha256,
+            line_tracks: pmeta.get(LINE_TRACKS_KEY).cloned(),
             points,
             lines,
             poses,
@@ -609,6 +618,7 @@ mod tests {
             source: LabelSource::Sfm,
             pose_source: PoseSource::Sfm,
             frames_sha256: "ab".repeat(32),
+            line_tracks: None,
             points: vec![
                 PointRow {
                     frame_id: 0,

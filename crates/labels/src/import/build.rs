@@ -240,6 +240,10 @@ pub fn build(
         source: LabelSource::Sfm,
         pose_source: config.pose_source,
         frames_sha256: frames_sha256.to_string(),
+        // Recorded only when not the default (the tables' metadata, then the shards'
+        // manifest).
+        line_tracks: (config.line_tracks != super::LineTrackSet::Finaltracks)
+            .then(|| config.line_tracks.as_str().to_string()),
         points: Vec::new(),
         lines: Vec::new(),
         poses: Vec::new(),

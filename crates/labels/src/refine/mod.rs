@@ -304,6 +304,7 @@ pub fn refine(
         source: LabelSource::DepthRefined,
         pose_source: labels.pose_source,
         frames_sha256: labels.frames_sha256.clone(),
+        line_tracks: labels.line_tracks.clone(),
         points: labels.points.clone(),
         lines: labels.lines.clone(),
         poses: labels.poses.clone(),

@@ -310,6 +310,7 @@ fn run_unit(
         tool_version: env!("CARGO_PKG_VERSION").to_string(),
         config_hash: config_hash.clone(),
         inputs: inputs.clone(),
+        line_tracks: labels.line_tracks.clone(),
         planned_shards: count,
         planned_frames: plans.iter().map(|p| p.frame_ids.len() as u64).sum(),
         shards: Vec::new(),
@@ -389,7 +390,11 @@ fn run_unit(
     let load = |id: u64| -> Result<FrameRecord, Box<dyn std::error::Error + Send + Sync>> {
         source.load(id).map_err(|e| Box::new(e) as _)
     };
-    let crate::WriteOutcome { manifest, reused } = write_shards(&job, range.clone(), &load)?;
+    let crate::WriteOutcome {
+        mut manifest,
+        reused,
+    } = write_shards(&job, range.clone(), &load)?;
+    manifest.line_tracks = labels.line_tracks.clone();
     let complete = if full {
         manifest.save(out.join(MANIFEST_FILE))?;
         save_record(&stage, &manifest)?;
