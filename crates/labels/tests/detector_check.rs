@@ -132,7 +132,7 @@ fn limap_with(
     let tracks = dir.join("finaltracks");
     for e in std::fs::read_dir(&tracks).unwrap() {
         let path = e.unwrap().path();
-        if !path.extension().is_some_and(|x| x == "txt") {
+        if path.extension().is_none_or(|x| x != "txt") {
             continue;
         }
         let mut t = limap::read_track(&path).unwrap();
@@ -265,9 +265,9 @@ fn jittered_limap_segments_are_refused() {
             .iter()
             .map(|s| {
                 let mut j = s.map(|v| v + rng.random_range(-3.0..3.0));
-                for k in 0..4 {
+                for (k, v) in j.iter_mut().enumerate() {
                     let max = if k % 2 == 0 { w } else { h };
-                    j[k] = j[k].clamp(0.5, max - 0.5);
+                    *v = v.clamp(0.5, max - 0.5);
                 }
                 j
             })
