@@ -531,6 +531,16 @@ mod tests {
             t.front_end.superpoint.weights,
             Some(PathBuf::from("/p/weights/sp.pth"))
         );
+        // The import's detector check compares with the same front-end.
+        assert_eq!(p.import.front_end.kind, features::FrontEndKind::Superpoint);
+        assert_eq!(
+            p.import.front_end.superpoint.weights,
+            Some(PathBuf::from("/p/weights/sp.pth"))
+        );
+        assert_eq!(
+            p.import.detector_check,
+            labels::import::DetectorCheck::Refuse
+        );
         let e = resolve("work = \"w\"\n[synth]\n[features]\nkind = \"superpoint\"\n")
             .unwrap_err()
             .to_string();
