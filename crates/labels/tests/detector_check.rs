@@ -29,7 +29,12 @@ struct Fixture {
 fn fixture() -> &'static Fixture {
     static F: OnceLock<Fixture> = OnceLock::new();
     F.get_or_init(|| {
-        let dir = tempfile::tempdir_in(env!("CARGO_TARGET_TMPDIR")).unwrap();
+        // A static is never dropped: the folder (about 20 MB) stays in the target's tmp
+        // folder, named so that it can be found.
+        let dir = tempfile::Builder::new()
+            .prefix("labels-detector-check-")
+            .tempdir_in(env!("CARGO_TARGET_TMPDIR"))
+            .unwrap();
         let synth = generate(
             &SynthConfig {
                 tiny: true,
