@@ -37,7 +37,7 @@ enum Command {
     /// Stage 1: read a dataset folder into the frames table.
     Ingest(commands::ingest::Args),
     /// Stage 2: join a COLMAP model and LIMAP tracks to the frames into label tables.
-    Import(commands::import::Args),
+    Import(Box<commands::import::Args>),
     /// Stage 3 (optional): move labels onto the depth maps.
     Refine(commands::refine::Args),
     /// Stage 4: write label shards (MCAP) and their manifest.
@@ -82,7 +82,7 @@ fn main() -> std::process::ExitCode {
         Command::Limap(c) => commands::limap::run(c),
         Command::Synth(a) => commands::synth::run(a, cli.quiet),
         Command::Ingest(a) => commands::ingest::run(a),
-        Command::Import(a) => commands::import::run(a),
+        Command::Import(a) => commands::import::run(*a),
         Command::Refine(a) => commands::refine::run(a),
         Command::Shard(a) => commands::shard::run(a),
         Command::Train(a) => commands::train::run(*a, &sub, cli.quiet),

@@ -58,7 +58,8 @@ pub struct PipelineFile {
     pub features: Option<FeaturesSection>,
 }
 
-/// `[features]`: which front-end describes the training images and the queries.
+/// `[features]`: which front-end describes the training images and the queries, and
+/// which detector the import's check compares the SfM keypoints with.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct FeaturesSection {
@@ -262,6 +263,12 @@ impl Pipeline {
         }
         let mut file = file;
         if let Some(f) = file.features.clone() {
+            // The import's detector check compares the inputs with this front-end.
+            import.front_end.kind = f.kind;
+            if let Some(w) = &f.superpoint_weights {
+                import.front_end.superpoint.weights =
+                    Some(r.path(&["features", "superpoint_weights"], w)?);
+            }
             let Some(t) = file.train.as_mut() else {
                 return Err(
                     r.config("[features] chooses the front-end of [train]: add [train]".into())
@@ -530,6 +537,16 @@ mod tests {
         assert_eq!(
             t.front_end.superpoint.weights,
             Some(PathBuf::from("/p/weights/sp.pth"))
+        );
+        // The import's detector check compares with the same front-end.
+        assert_eq!(p.import.front_end.kind, features::FrontEndKind::Superpoint);
+        assert_eq!(
+            p.import.front_end.superpoint.weights,
+            Some(PathBuf::from("/p/weights/sp.pth"))
+        );
+        assert_eq!(
+            p.import.detector_check,
+            labels::import::DetectorCheck::Refuse
         );
         let e = resolve("work = \"w\"\n[synth]\n[features]\nkind = \"superpoint\"\n")
             .unwrap_err()

@@ -179,8 +179,10 @@ fn run_stage(
             StageReport::done(stage, dir, &done)
         }
         StageName::Import => {
-            let done =
-                labels::import::run(&p.import, &frames, &dir).map_err(|e| stage_err(name)(&e))?;
+            let done = labels::import::run_with(&p.import, &frames, &dir, &|c| {
+                superpoint::front_end(c).map_err(|e| e.to_string())
+            })
+            .map_err(|e| stage_err(name)(&e))?;
             StageReport::done(stage, dir, &done)
         }
         StageName::Refine => match &p.refine {

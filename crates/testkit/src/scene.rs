@@ -207,9 +207,13 @@ impl Scene {
         &self,
         config: &labels::import::ImportConfig,
     ) -> labels::import::ImportConfig {
+        // The scene's keypoints and segments are drawn, not detected in its images (smooth
+        // gradients): the detector check would refuse them, so it is off here (its tests
+        // use the synthetic scene, crates/labels/tests/detector_check.rs).
         labels::import::ImportConfig {
             model: Some(self.model_dir.clone()),
             limap: Some(self.limap_dir.clone()),
+            detector_check: labels::import::DetectorCheck::Off,
             ..config.clone()
         }
     }

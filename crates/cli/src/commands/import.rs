@@ -17,13 +17,24 @@ pub struct Args {
     /// Print the report as JSON instead of a table.
     #[arg(long)]
     pub json: bool,
+    /// The front-end the detector check compares the model's keypoints with: sift or
+    /// superpoint (a pipeline's `[features] kind`).
+    #[arg(long, default_value = "sift")]
+    pub front_end: features::FrontEndKind,
+    /// The SuperPoint weights file for `--front-end superpoint` (else
+    /// PL2MAP_SUPERPOINT_WEIGHTS).
+    #[arg(long)]
+    pub superpoint_weights: Option<PathBuf>,
     #[command(flatten)]
     pub config: ImportConfig,
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let config = args.config;
-    let done = import::run(&config, &args.frames, &args.out).with_context(|| {
+    let mut config = args.config;
+    config.front_end.kind = args.front_end;
+    config.front_end.superpoint.weights = args.superpoint_weights;
+    let make = |c: &features::FrontEndConfig| superpoint::front_end(c).map_err(|e| e.to_string());
+    let done = import::run_with(&config, &args.frames, &args.out, &make).with_context(|| {
         format!(
             "importing {} and {} for {}",
             config.model.clone().unwrap_or_default().display(),

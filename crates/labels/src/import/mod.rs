@@ -19,10 +19,15 @@
 //! read) is skipped.
 
 mod build;
+mod detectors;
 mod problems;
 mod report;
 
 pub use build::build;
+pub use detectors::{
+    DetectorCheck, DetectorCheckReport, MATCH_RADIUS_PX, MIN_KEYPOINT_RATE, MIN_SEGMENT_RATE,
+    MakeFrontEnd, SAMPLE_IMAGES, matched_keypoints, matched_segments, sift_only,
+};
 pub use problems::{EXAMPLES_PER_KIND, ImportProblem, summarize};
 pub use report::{
     ImportReport, LimapCounts, LineCounts, ModelCounts, PointCounts, PoseDisagreement,
@@ -94,6 +99,23 @@ pub struct ImportConfig {
     #[serde(skip_serializing_if = "LineTrackSet::is_default")]
     #[arg(long, value_enum, default_value_t = LineTrackSet::default())]
     pub line_tracks: LineTrackSet,
+    /// The detector check (docs/method.md section 3): on a sample of training images,
+    /// compare the model's keypoints and LIMAP's segments with the front-end's
+    /// detections; `refuse` (default) when they say another detector made them, `accept`
+    /// (import anyway, the report keeps the rates) or `off`.
+    #[serde(skip_serializing_if = "DetectorCheck::is_default")]
+    #[arg(long, value_enum, default_value_t = DetectorCheck::default())]
+    pub detector_check: DetectorCheck,
+    /// The front-end the check compares with (`pl2map import --front-end`; a pipeline's
+    /// `[features]` sets its kind and SuperPoint weights). Left out of the serialised
+    /// form when the default (SIFT), and its weights file is hashed by content.
+    #[serde(skip_serializing_if = "is_default_front_end")]
+    #[arg(skip)]
+    pub front_end: features::FrontEndConfig,
+}
+
+fn is_default_front_end(c: &features::FrontEndConfig) -> bool {
+    *c == features::FrontEndConfig::default()
 }
 
 /// The LIMAP tracks the line labels come from (`[import] line_tracks`).
@@ -142,6 +164,8 @@ impl Default for ImportConfig {
             limap_segments: None,
             limap_tracks: None,
             line_tracks: LineTrackSet::Finaltracks,
+            detector_check: DetectorCheck::Refuse,
+            front_end: features::FrontEndConfig::default(),
         }
     }
 }
@@ -150,9 +174,12 @@ impl ImportConfig {
     /// The settings without the input folders: what the record and the report hash
     /// (the inputs are hashed by content).
     pub fn settings(&self) -> ImportConfig {
+        let mut front_end = self.front_end.clone();
+        front_end.superpoint.weights = None;
         ImportConfig {
             model: None,
             limap: None,
+            front_end,
             ..self.clone()
         }
     }
@@ -181,6 +208,9 @@ impl ImportConfig {
                 self.bounds_tolerance_px
             )));
         }
+        self.front_end
+            .validate()
+            .map_err(|e| ImportError::Config(format!("front_end: {e}")))?;
         Ok(())
     }
 }
@@ -208,6 +238,10 @@ pub enum ImportError {
     },
     #[error("import configuration: {0}")]
     Config(String),
+    /// The detector check says another detector made the model's keypoints or LIMAP's
+    /// segments (`detector_check = "refuse"`).
+    #[error("{}", report.refusal())]
+    DetectorMismatch { report: Box<DetectorCheckReport> },
     #[error("{}", summarize(problems, hints))]
     Inconsistent {
         problems: Vec<ImportProblem>,
@@ -325,14 +359,33 @@ fn limap_options(config: &ImportConfig, limap_dir: &Path) -> LimapDirOptions {
 }
 
 /// Runs the import stage into `out` through the stage runner (see the module docs);
-/// skipped when its record matches.
+/// skipped when its record matches. The detector check builds SIFT itself; for a
+/// SuperPoint front-end use [`run_with`].
 pub fn run(
     config: &ImportConfig,
     frames_path: &Path,
     out: &Path,
 ) -> Result<Done<ImportOutput>, ImportError> {
+    run_with(config, frames_path, out, &sift_only)
+}
+
+/// [`run`] with the builder of the detector check's front-end (`superpoint::front_end`
+/// for either kind).
+pub fn run_with(
+    config: &ImportConfig,
+    frames_path: &Path,
+    out: &Path,
+    make_front_end: MakeFrontEnd<'_>,
+) -> Result<Done<ImportOutput>, ImportError> {
     config.validate()?;
     let (model_dir, limap_dir) = config.inputs()?;
+    // The check's front-end is built from the configuration with its weights path; the
+    // record hashes the weights' content instead of the path.
+    let front_end = config.front_end.clone();
+    let weights = match (config.detector_check, front_end.kind) {
+        (DetectorCheck::Off, _) | (_, features::FrontEndKind::Sift) => None,
+        (_, features::FrontEndKind::Superpoint) => front_end.superpoint.weights_path(),
+    };
     let config = &config.settings();
     let frames_sha256 = stage::sha256_file(frames_path)?;
     let model_files = model_files(model_dir)?;
@@ -342,6 +395,9 @@ pub fn run(
     select_tracks(&mut limap, config.line_tracks)?;
     let mut inputs = limap_hashes(&limap)?;
     inputs.insert("frames".into(), frames_sha256.clone());
+    if let Some(w) = &weights {
+        inputs.insert("superpoint_weights".into(), stage::sha256_file(w)?);
+    }
     inputs.insert(
         "model".into(),
         stage::sha256_files(model_dir, model_files.iter().map(String::as_str))?,
@@ -365,7 +421,23 @@ pub fn run(
                 dir: model_dir.to_path_buf(),
                 source,
             })?;
-            let (tables, report) = build(config, &frames, &frames_sha256, &model, &limap)?;
+            let (tables, mut report) = build(config, &frames, &frames_sha256, &model, &limap)?;
+            if config.detector_check != DetectorCheck::Off {
+                let mut check = detectors::check(&front_end, make_front_end, &frames, &tables)?;
+                if !check.passed() {
+                    if config.detector_check == DetectorCheck::Refuse {
+                        return Err(ImportError::DetectorMismatch {
+                            report: Box::new(check),
+                        });
+                    }
+                    check.decision = "accepted".into();
+                    report.warnings.push(format!(
+                        "detector check failed and was accepted (detector_check = \"accept\"): {}",
+                        check.rates()
+                    ));
+                }
+                report.detector_check = Some(check);
+            }
             tables.write(outputs.dir())?;
             for f in [POINTS_FILE, LINES_FILE, POSES_FILE] {
                 outputs.path(f);

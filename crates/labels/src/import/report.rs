@@ -1,7 +1,7 @@
 //! What the import found and wrote: counts, pose disagreement between the SfM model and
 //! the dataset, and warnings. Saved as JSON and printed as a short table.
 
-use super::ImportConfig;
+use super::{DetectorCheckReport, ImportConfig};
 use crate::stats::Spread;
 use serde::{Deserialize, Serialize};
 
@@ -90,6 +90,10 @@ pub struct ImportReport {
     pub intrinsics_differ: usize,
     pub intrinsics_example: Option<String>,
     pub warnings: Vec<String>,
+    /// The detector check's rates and decision; absent when it did not run
+    /// (`detector_check = "off"`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub detector_check: Option<DetectorCheckReport>,
 }
 
 fn pct(n: usize, of: usize) -> String {
@@ -187,6 +191,9 @@ impl ImportReport {
                 self.intrinsics_differ,
                 self.intrinsics_example.as_deref().unwrap_or("-")
             ));
+        }
+        if let Some(c) = &self.detector_check {
+            s.push_str(&format!("detector check ({}): {}\n", c.decision, c.rates()));
         }
         for w in &self.warnings {
             s.push_str(&format!("warning: {w}\n"));
