@@ -73,8 +73,16 @@ pub fn reference_keys(config: &ModelConfig) -> Vec<(String, Vec<usize>)> {
         for p in ["proj.0", "proj.1", "proj.2", "merge"] {
             layer(&mut keys, format!("gnn.layers.{i}.attn.{p}"), vec![d, d, 1]);
         }
-        layer(&mut keys, format!("gnn.layers.{i}.mlp.0"), vec![2 * d, 2 * d, 1]);
-        layer(&mut keys, format!("gnn.layers.{i}.mlp.2"), vec![d, 2 * d, 1]);
+        layer(
+            &mut keys,
+            format!("gnn.layers.{i}.mlp.0"),
+            vec![2 * d, 2 * d, 1],
+        );
+        layer(
+            &mut keys,
+            format!("gnn.layers.{i}.mlp.2"),
+            vec![d, 2 * d, 1],
+        );
     }
     for (head, hidden, outputs) in [
         ("mapping_p", &config.head_hidden[..], POINT_OUTPUTS),
@@ -152,7 +160,11 @@ where
         Ok(())
     };
     drop(linear);
-    norm(get, &mut e.attention_norm, &format!("{LINE}.slf_attn.layer_norm"))?;
+    norm(
+        get,
+        &mut e.attention_norm,
+        &format!("{LINE}.slf_attn.layer_norm"),
+    )?;
     e.ffn_in = reference_linear::<B, E, F>(
         get,
         device,
