@@ -142,16 +142,6 @@ where
     let dk = d / config.heads;
     // Our channel h * dk + j is the reference's channel j * heads + h.
     let perm: Vec<usize> = (0..d).map(|c| (c % dk) * config.heads + c / dk).collect();
-    let mut linear = |name: &str, out: usize, inp: usize, conv: bool, permute: Permute<'_>| {
-        reference_linear::<B, E, F>(get, device, name, [out, inp], conv, permute)
-    };
-
-    let e = &mut net.line_encoder;
-    let (dense, none) = (false, Permute::None);
-    e.attention.query = linear(&format!("{LINE}.slf_attn.w_qs"), d, d, dense, none)?;
-    e.attention.key = linear(&format!("{LINE}.slf_attn.w_ks"), d, d, dense, none)?;
-    e.attention.value = linear(&format!("{LINE}.slf_attn.w_vs"), d, d, dense, none)?;
-    e.attention.merge = linear(&format!("{LINE}.slf_attn.fc"), d, d, dense, none)?;
     let norm = |get: &mut F, ln: &mut LayerNorm<B>, name: &str| -> Result<(), E> {
         let g = get(&format!("{name}.weight"), &[d])?;
         let b = get(&format!("{name}.bias"), &[d])?;
@@ -159,28 +149,22 @@ where
         ln.beta = Some(Param::from_data(TensorData::new(b, [d]), device));
         Ok(())
     };
-    drop(linear);
+    // The line encoder: dense layers, contiguous heads (no permutation).
+    let dense = |get: &mut F, name: &str, out: usize, inp: usize| {
+        reference_linear::<B, E, F>(get, device, name, [out, inp], false, Permute::None)
+    };
+    let e = &mut net.line_encoder;
+    e.attention.query = dense(get, &format!("{LINE}.slf_attn.w_qs"), d, d)?;
+    e.attention.key = dense(get, &format!("{LINE}.slf_attn.w_ks"), d, d)?;
+    e.attention.value = dense(get, &format!("{LINE}.slf_attn.w_vs"), d, d)?;
+    e.attention.merge = dense(get, &format!("{LINE}.slf_attn.fc"), d, d)?;
     norm(
         get,
         &mut e.attention_norm,
         &format!("{LINE}.slf_attn.layer_norm"),
     )?;
-    e.ffn_in = reference_linear::<B, E, F>(
-        get,
-        device,
-        &format!("{LINE}.pos_ffn.w_1"),
-        [f, d],
-        dense,
-        none,
-    )?;
-    e.ffn_out = reference_linear::<B, E, F>(
-        get,
-        device,
-        &format!("{LINE}.pos_ffn.w_2"),
-        [d, f],
-        dense,
-        none,
-    )?;
+    e.ffn_in = dense(get, &format!("{LINE}.pos_ffn.w_1"), f, d)?;
+    e.ffn_out = dense(get, &format!("{LINE}.pos_ffn.w_2"), d, f)?;
     norm(get, &mut e.ffn_norm, &format!("{LINE}.pos_ffn.layer_norm"))?;
 
     let mut linear = |name: &str, out: usize, inp: usize, permute: Permute<'_>| {

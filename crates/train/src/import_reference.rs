@@ -42,8 +42,10 @@ pub fn import_reference(
     out: &Path,
     superpoint_weights: Option<&Path>,
 ) -> Result<ImportSummary, TrainError> {
-    let mut config = TrainConfig::default();
-    config.model = reference_config();
+    let mut config = TrainConfig {
+        model: reference_config(),
+        ..TrainConfig::default()
+    };
     config.front_end.kind = FrontEndKind::Superpoint;
     config.front_end.superpoint.weights = superpoint_weights.map(Path::to_path_buf);
     let weights_path = config
