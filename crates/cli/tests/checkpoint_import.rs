@@ -135,6 +135,26 @@ fn imported_reference_model_gives_the_reference_predictions() {
     // The outputs are not trivially small, so the tolerance means something.
     assert!(want_xyz.iter().any(|v| v.abs() > 0.5));
 
+    // The predictor of `pl2map score` / `localize` loads it and describes an image with
+    // the recorded SuperPoint weights.
+    let predictor = train::Predictor::load(&dir.path().join("model.ckpt")).unwrap();
+    let img = image::GrayImage::from_fn(160, 120, |x, y| {
+        image::Luma([((x * 7 + y * 13 + (x * y) % 31) % 256) as u8])
+    });
+    let pred = predictor
+        .predict_at(
+            &img,
+            &[[40.0, 30.0], [100.0, 80.0]],
+            &[[20.0, 20.0, 120.0, 90.0]],
+        )
+        .unwrap();
+    assert_eq!((pred.points.len(), pred.lines.len()), (2, 1));
+    assert!(
+        pred.points
+            .iter()
+            .all(|p| p.xyz.iter().all(|v| v.is_finite()))
+    );
+
     // A bare state dict (no "model_state_dict" around it) gives the same checkpoint.
     let bare = tempfile::tempdir().unwrap();
     std::fs::copy(&weights, bare.path().join("superpoint.pth")).unwrap();
