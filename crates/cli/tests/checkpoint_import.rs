@@ -200,3 +200,26 @@ fn a_missing_or_misshapen_key_is_refused_naming_it() {
         assert!(!dir.path().join("model.ckpt").exists());
     }
 }
+
+#[test]
+fn an_import_without_superpoint_weights_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    if peer(dir.path(), "bare", "").is_none() {
+        return;
+    }
+    let out = Command::new(env!("CARGO_BIN_EXE_pl2map"))
+        .args(["checkpoint", "import"])
+        .arg(dir.path().join("reference.pth"))
+        .arg("--out")
+        .arg(dir.path().join("model.ckpt"))
+        .env_remove("PL2MAP_SUPERPOINT_WEIGHTS")
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("--superpoint-weights") && err.contains("PL2MAP_SUPERPOINT_WEIGHTS"),
+        "{err}"
+    );
+    assert!(!dir.path().join("model.ckpt").exists());
+}

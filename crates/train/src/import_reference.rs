@@ -48,11 +48,17 @@ pub fn import_reference(
     };
     config.front_end.kind = FrontEndKind::Superpoint;
     config.front_end.superpoint.weights = superpoint_weights.map(Path::to_path_buf);
-    let weights_path = config
-        .front_end
-        .superpoint
-        .weights_path()
-        .ok_or(superpoint::SuperPointError::NoWeights)?;
+    let weights_path = config.front_end.superpoint.weights_path().ok_or_else(|| {
+        TrainError::Reference(superpoint::SuperPointError::Weights {
+            path: reference.to_path_buf(),
+            key: None,
+            reason: format!(
+                "the imported model needs the SuperPoint weights it was trained with: pass \
+                 --superpoint-weights FILE or set {} (README.md, \"SuperPoint weights\")",
+                features::SUPERPOINT_WEIGHTS_ENV
+            ),
+        })
+    })?;
     let weights = superpoint::Weights::read(&weights_path)?;
     let sha256 = weights.sha256.clone().unwrap_or_default();
     let weights_path = std::path::absolute(&weights_path).unwrap_or(weights_path);
