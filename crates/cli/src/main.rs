@@ -58,6 +58,9 @@ enum Command {
     Features(commands::features::Args),
     /// Absolute pose from 2D-3D point (and line) correspondences.
     Pose(commands::pose::Args),
+    /// Checkpoints: import the reference implementation's released models.
+    #[command(subcommand)]
+    Checkpoint(commands::checkpoint::Command),
     /// Benchmarks that print a table (never run as tests).
     #[command(subcommand)]
     Bench(commands::bench::Command),
@@ -93,6 +96,7 @@ fn main() -> std::process::ExitCode {
         Command::Verify(a) => commands::verify::verify(a, cli.quiet),
         Command::Features(a) => commands::features::run(a),
         Command::Pose(a) => commands::pose::run(a),
+        Command::Checkpoint(c) => commands::checkpoint::run(c),
         Command::Bench(c) => commands::bench::run(c),
     };
     match result {

@@ -27,6 +27,7 @@ pub mod dropout;
 pub mod error;
 pub mod graph;
 pub mod heads;
+pub mod import_reference;
 mod init;
 pub mod line_encoder;
 pub mod loss;

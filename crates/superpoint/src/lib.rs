@@ -22,4 +22,4 @@ pub mod weights;
 pub use error::SuperPointError;
 pub use frontend::{SuperPointFrontEnd, front_end, weights_sha256};
 pub use net::{DenseMaps, SuperPointBackend, SuperPointNet};
-pub use weights::{LAYERS, Weights, file_sha256, parameter_count};
+pub use weights::{LAYERS, StateDict, Weights, file_sha256, parameter_count};

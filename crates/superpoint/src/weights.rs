@@ -87,19 +87,12 @@ impl Weights {
             ));
         }
         let sha256 = file_sha256(path)?;
-        let reader = burn_store::pytorch::PytorchReader::new(path).map_err(|e| {
-            SuperPointError::weights(path, None, format!("not a PyTorch state dict: {e}"))
-        })?;
+        let reader = StateDict::open(path, None)?;
         let mut layers = Vec::with_capacity(LAYERS.len());
         for l in &LAYERS {
             let w_shape = [l.out_channels, l.in_channels, l.kernel, l.kernel];
-            let w = tensor(&reader, path, &format!("{}.weight", l.name), &w_shape)?;
-            let b = tensor(
-                &reader,
-                path,
-                &format!("{}.bias", l.name),
-                &[l.out_channels],
-            )?;
+            let w = reader.tensor(&format!("{}.weight", l.name), &w_shape, EXPECTED)?;
+            let b = reader.tensor(&format!("{}.bias", l.name), &[l.out_channels], EXPECTED)?;
             layers.push((w, b));
         }
         Ok(Weights {
@@ -140,39 +133,79 @@ impl Weights {
     }
 }
 
-fn tensor(
-    reader: &burn_store::pytorch::PytorchReader,
-    path: &Path,
-    key: &str,
-    shape: &[usize],
-) -> Result<Vec<f32>, SuperPointError> {
-    let snapshot = reader.get(key).ok_or_else(|| {
-        SuperPointError::weights(
-            path,
-            Some(key),
-            "missing (expected the state dict of the released SuperPoint network)",
-        )
-    })?;
-    if snapshot.shape.as_slice() != shape {
-        return Err(SuperPointError::weights(
-            path,
-            Some(key),
-            format!("shape {:?}, expected {shape:?}", snapshot.shape.as_slice()),
-        ));
+/// What a SuperPoint weights file is, for the refusal of a missing key.
+const EXPECTED: &str = "the state dict of the released SuperPoint network";
+
+/// A PyTorch state-dict file (zip or legacy pickle format) read with burn's reader,
+/// tensor by tensor; errors name the file and the key. Shared by the SuperPoint weights
+/// and the import of the reference's PL2Map checkpoints (`train::import_reference`).
+pub struct StateDict {
+    path: std::path::PathBuf,
+    reader: burn_store::pytorch::PytorchReader,
+}
+
+impl StateDict {
+    /// Opens `path`; `top_level_key`: the state dict is the value of this key of a
+    /// dictionary saved with `torch.save` (e.g. `{"epoch": .., "model_state_dict": ..}`).
+    pub fn open(path: &Path, top_level_key: Option<&str>) -> Result<StateDict, SuperPointError> {
+        let reader = match top_level_key {
+            None => burn_store::pytorch::PytorchReader::new(path),
+            Some(k) => burn_store::pytorch::PytorchReader::with_top_level_key(path, k),
+        }
+        .map_err(|e| {
+            SuperPointError::weights(path, None, format!("not a PyTorch state dict: {e}"))
+        })?;
+        Ok(StateDict {
+            path: path.to_path_buf(),
+            reader,
+        })
     }
-    let data: TensorData = snapshot.to_data().map_err(|e| {
-        SuperPointError::weights(path, Some(key), format!("cannot read the tensor: {e:?}"))
-    })?;
-    let values = data
-        .convert::<f32>()
-        .into_vec::<f32>()
-        .map_err(|e| SuperPointError::weights(path, Some(key), format!("{e:?}")))?;
-    if values.iter().any(|v| !v.is_finite()) {
-        return Err(SuperPointError::weights(
-            path,
-            Some(key),
-            "holds a value that is not finite",
-        ));
+
+    /// The file's keys, sorted.
+    pub fn keys(&self) -> Vec<String> {
+        let mut k = self.reader.keys();
+        k.sort();
+        k
     }
-    Ok(values)
+
+    /// The tensor `key` as f32 values in row-major order, refused unless it is there,
+    /// has `shape` and holds finite values only. `expected` says what the file should
+    /// have been (the message of a missing key).
+    pub fn tensor(
+        &self,
+        key: &str,
+        shape: &[usize],
+        expected: &str,
+    ) -> Result<Vec<f32>, SuperPointError> {
+        let path = &self.path;
+        let snapshot = self.reader.get(key).ok_or_else(|| {
+            SuperPointError::weights(
+                path,
+                Some(key),
+                format!("missing (expected {expected}; shape {shape:?})"),
+            )
+        })?;
+        if snapshot.shape.as_slice() != shape {
+            return Err(SuperPointError::weights(
+                path,
+                Some(key),
+                format!("shape {:?}, expected {shape:?}", snapshot.shape.as_slice()),
+            ));
+        }
+        let data: TensorData = snapshot.to_data().map_err(|e| {
+            SuperPointError::weights(path, Some(key), format!("cannot read the tensor: {e:?}"))
+        })?;
+        let values = data
+            .convert::<f32>()
+            .into_vec::<f32>()
+            .map_err(|e| SuperPointError::weights(path, Some(key), format!("{e:?}")))?;
+        if values.iter().any(|v| !v.is_finite()) {
+            return Err(SuperPointError::weights(
+                path,
+                Some(key),
+                "holds a value that is not finite",
+            ));
+        }
+        Ok(values)
+    }
 }

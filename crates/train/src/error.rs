@@ -23,6 +23,10 @@ pub enum TrainError {
     Features(#[from] features::FeatureError),
     #[error("front-end: {0}")]
     SuperPoint(#[from] superpoint::SuperPointError),
+    /// A reference checkpoint (`import_reference`): unreadable, a missing key or a
+    /// wrong shape; the error names the file and the key.
+    #[error("reference checkpoint {0}")]
+    Reference(superpoint::SuperPointError),
     #[error("model: {0}")]
     Model(#[from] model::ModelError),
     #[error("checkpoint {path}: {reason}")]

@@ -14,6 +14,7 @@ pub mod augment;
 pub mod checkpoint;
 pub mod config;
 pub mod error;
+pub mod import_reference;
 pub mod metrics;
 pub mod plot;
 pub mod predict;

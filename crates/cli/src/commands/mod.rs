@@ -4,6 +4,7 @@ pub mod bench_features;
 pub mod bench_localize;
 pub mod bench_pose;
 pub mod bench_stages;
+pub mod checkpoint;
 pub mod colmap;
 pub mod features;
 pub mod flags;
