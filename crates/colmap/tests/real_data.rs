@@ -1,4 +1,4 @@
-//! Real COLMAP models (shared/data) against what pycolmap 4.2.1 reads from them
+//! Real COLMAP models of the sample data (README.md, "Tests") against what pycolmap 4.2.1 reads from them
 //! (pycolmap-summary.json, written by pycolmap, not by this project).
 
 use colmap::Reconstruction;

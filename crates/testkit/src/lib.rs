@@ -1,7 +1,7 @@
 //! Test support for the workspace's crates. Dev-only: every crate that uses it lists it
 //! under `[dev-dependencies]`; no library or binary depends on it.
 //!
-//! - [`sample`]: the real sample data (`PL2MAP_SAMPLE_DATA`, else `../shared/data`).
+//! - [`sample`]: the real sample data (README.md, "Tests": where it is looked for).
 //! - [`python`]: the Python peer (`PL2MAP_PYTHON`) the interop tests compare against, and
 //!   running it.
 //! - [`files`]: folder walkers and copies, for byte-identity checks.

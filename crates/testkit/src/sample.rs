@@ -1,10 +1,10 @@
-//! The real sample data: `PL2MAP_SAMPLE_DATA` when set, else `../shared/data` next to the
-//! workspace root. Tests that read it skip when it is absent.
+//! The real sample data (README.md, "Tests"): `PL2MAP_SAMPLE_DATA` when set, else the
+//! default location the README names. Tests that read it skip when it is absent.
 
 use std::path::{Path, PathBuf};
 
-/// The sample data root: `PL2MAP_SAMPLE_DATA` when set, else `<workspace>/../shared/data`
-/// (whether or not it exists).
+/// The sample data root: `PL2MAP_SAMPLE_DATA` when set, else the README's default
+/// location next to the workspace (whether or not it exists).
 pub fn root() -> PathBuf {
     match std::env::var_os("PL2MAP_SAMPLE_DATA") {
         Some(dir) => PathBuf::from(dir),

@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 #[derive(clap::Args)]
 pub struct Args {
     /// Folder searched recursively for .png / .jpg images (default: the 7-Scenes
-    /// sample frames of ../shared/data when present).
+    /// frames of the sample data, README.md "Tests", when present).
     #[arg(long)]
     images: Option<PathBuf>,
     /// Use at most this many images.

@@ -129,7 +129,7 @@ mod tests {
 
     #[test]
     fn matches_colmap_written_values() {
-        // Values as they appear in files pycolmap 4.2.1 wrote (shared/data).
+        // Values as they appear in files pycolmap 4.2.1 wrote (the sample data, README.md "Tests").
         assert_eq!(g(0.999999), "0.99999899999999997");
         assert_eq!(g(8.68136e-05), "8.6813599999999998e-05");
         assert_eq!(g(1847.53), "1847.53");
