@@ -24,10 +24,9 @@ use crate::localize::Localised;
 use foxglove::Encode;
 use foxglove::messages::{
     CameraCalibration, Color, CompressedImage, FrameTransform, LinePrimitive, PackedElementField,
-    Point3, PointCloud, Pose as FgPose, Quaternion as FgQuaternion, SceneEntity, SceneUpdate,
-    Timestamp, Vector3 as FgVector3, line_primitive, packed_element_field,
+    Point3, PointCloud, SceneEntity, SceneUpdate, Timestamp, line_primitive, packed_element_field,
 };
-use geometry::{Camera, Pose};
+use geometry::Pose;
 use mcap::records::MessageHeader;
 use std::collections::BTreeMap;
 use std::io::{BufWriter, Seek, SeekFrom, Write};
@@ -39,8 +38,8 @@ pub const TOPIC_CALIBRATION: &str = "/camera/calibration";
 pub const TOPIC_TF: &str = "/tf";
 pub const TOPIC_POINTS: &str = "/predictions/points";
 pub const TOPIC_LINES: &str = "/predictions/lines";
-pub const WORLD_FRAME: &str = "world";
-pub const CAMERA_FRAME: &str = "camera";
+/// The shards' frames of reference: one scene looks the same in both files.
+pub use shards::{CAMERA_FRAME, WORLD_FRAME};
 pub const GT_FRAME: &str = "camera_gt";
 /// Bytes per point of `/predictions/points`: x y z reliability (float32), r g b a (u8).
 pub const POINT_STRIDE: u32 = 20;
@@ -180,17 +179,21 @@ impl VisualWriter {
             },
         )?;
         let ch = self.channels.calibration;
-        self.put(ch, log_time, &calibration(&r.camera, ts))?;
+        self.put(ch, log_time, &shards::camera_calibration(&r.camera, ts))?;
         let shown = [Variant::PointsLines, Variant::Points]
             .into_iter()
             .find(|&v| l.result.variant(v).pose.is_some());
         let ch = self.channels.tf;
         if let Some(v) = shown {
             let pose = l.result.variant(v).pose.as_ref().expect("found above");
-            self.put(ch, log_time, &transform(pose, CAMERA_FRAME, ts))?;
+            self.put(
+                ch,
+                log_time,
+                &shards::camera_transform(pose, CAMERA_FRAME, ts),
+            )?;
         }
         if let Some(gt) = gt {
-            self.put(ch, log_time, &transform(gt, GT_FRAME, ts))?;
+            self.put(ch, log_time, &shards::camera_transform(gt, GT_FRAME, ts))?;
         }
         let vr = shown.map(|v| l.result.variant(v));
         let (pmask, lmask) = match vr {
@@ -224,74 +227,6 @@ fn mcap_err(path: &Path, what: &'static str) -> impl Fn(mcap::McapError) -> Scor
     move |e| ScoreError::Visual {
         path: path.clone(),
         reason: format!("{what}: {e}"),
-    }
-}
-
-/// K from the camera's pinhole part, P = [K | 0], R = I, the distortion where
-/// Foxglove has the same model (`shards::foxglove_distortion`).
-fn calibration(cam: &Camera, ts: Timestamp) -> CameraCalibration {
-    let k = if cam.model.is_perspective() {
-        let (fx, fy) = cam.focal_xy();
-        let (cx, cy) = cam.principal_point();
-        vec![fx, 0.0, cx, 0.0, fy, cy, 0.0, 0.0, 1.0]
-    } else {
-        vec![0.0; 9]
-    };
-    let p = vec![
-        k[0], k[1], k[2], 0.0, k[3], k[4], k[5], 0.0, k[6], k[7], k[8], 0.0,
-    ];
-    let (model, d) = shards::foxglove_distortion(cam)
-        .map(|(m, d)| (m.to_string(), d))
-        .unwrap_or_default();
-    CameraCalibration {
-        timestamp: Some(ts),
-        frame_id: CAMERA_FRAME.into(),
-        width: u32::try_from(cam.width).unwrap_or(u32::MAX),
-        height: u32::try_from(cam.height).unwrap_or(u32::MAX),
-        distortion_model: model,
-        d,
-        k,
-        r: vec![1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0],
-        p,
-    }
-}
-
-/// The camera in the world: the inverse of the world-to-camera pose.
-fn transform(world_to_camera: &Pose, child: &str, ts: Timestamp) -> FrameTransform {
-    let c = world_to_camera.inverse();
-    let q = c.rotation.quaternion();
-    let t = c.translation;
-    FrameTransform {
-        timestamp: Some(ts),
-        parent_frame_id: WORLD_FRAME.into(),
-        child_frame_id: child.into(),
-        translation: Some(FgVector3 {
-            x: t.x,
-            y: t.y,
-            z: t.z,
-        }),
-        rotation: Some(FgQuaternion {
-            x: q.i,
-            y: q.j,
-            z: q.k,
-            w: q.w,
-        }),
-    }
-}
-
-fn identity_pose() -> FgPose {
-    FgPose {
-        position: Some(FgVector3 {
-            x: 0.0,
-            y: 0.0,
-            z: 0.0,
-        }),
-        orientation: Some(FgQuaternion {
-            x: 0.0,
-            y: 0.0,
-            z: 0.0,
-            w: 1.0,
-        }),
     }
 }
 
@@ -351,7 +286,7 @@ fn points(l: &Localised, mask: &[bool], config: &ScoreConfig, ts: Timestamp) -> 
     PointCloud {
         timestamp: Some(ts),
         frame_id: WORLD_FRAME.into(),
-        pose: Some(identity_pose()),
+        pose: Some(shards::identity_pose()),
         point_stride: POINT_STRIDE,
         fields: vec![
             field("x", 0, NumericType::Float32),
@@ -408,7 +343,7 @@ fn lines(l: &Localised, mask: &[bool], config: &ScoreConfig, ts: Timestamp) -> S
             frame_locked: false,
             lines: vec![LinePrimitive {
                 r#type: line_primitive::Type::LineList as i32,
-                pose: Some(identity_pose()),
+                pose: Some(shards::identity_pose()),
                 thickness: 2.0,
                 scale_invariant: true,
                 points,

@@ -43,7 +43,10 @@ pub use plan::{
 pub use reader::{ReaderOptions, ShardFile, ShardReader};
 pub use record::{FrameRecord, ImageFormat, LabelSource, Split};
 pub use shard_stage::{MANIFEST_FILE, shards_of_split};
-pub use visual::{CAMERA_FRAME, LINES_ENTITY_ID, WORLD_FRAME, foxglove_distortion};
+pub use visual::{
+    CAMERA_FRAME, LINES_ENTITY_ID, WORLD_FRAME, camera_calibration, camera_transform,
+    foxglove_distortion, identity_pose,
+};
 pub use writer::{
     FRAME_PERIOD_NS, LIBRARY, SHARD_FORMAT_VERSION, SHARD_METADATA_NAME, ShardConfig, ShardInfo,
     TOPIC_CALIBRATION, TOPIC_IMAGE, TOPIC_LABELS, TOPIC_LINES, TOPIC_POINTS, TOPIC_TF,

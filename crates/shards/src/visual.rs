@@ -12,7 +12,7 @@ use foxglove::messages::{
     Point3, PointCloud, Pose as FgPose, Quaternion as FgQuaternion, SceneEntity, SceneUpdate,
     Timestamp, Vector3 as FgVector3, line_primitive, packed_element_field,
 };
-use geometry::{Camera, CameraModel};
+use geometry::{Camera, CameraModel, Pose};
 
 /// Parent frame of `/tf` and frame of the 3D labels.
 pub const WORLD_FRAME: &str = "world";
@@ -78,10 +78,10 @@ pub fn foxglove_distortion(camera: &Camera) -> Option<(&'static str, Vec<f64>)> 
     Some(d)
 }
 
-/// K from the camera's pinhole part, P = [K | 0], R = I. For EQUIRECTANGULAR, which
-/// has no pinhole part, K is all zeros: Foxglove reads K[0] == 0 as "uncalibrated".
-pub(crate) fn camera_calibration(f: &FrameRecord, ts: Timestamp) -> CameraCalibration {
-    let cam = &f.camera;
+/// K from the camera's pinhole part, P = [K | 0], R = I, in the `camera` frame. For
+/// EQUIRECTANGULAR, which has no pinhole part, K is all zeros: Foxglove reads
+/// K[0] == 0 as "uncalibrated". Also the score crate's `visual.mcap`.
+pub fn camera_calibration(cam: &Camera, ts: Timestamp) -> CameraCalibration {
     let k = if cam.model.is_perspective() {
         let (fx, fy) = cam.focal_xy();
         let (cx, cy) = cam.principal_point();
@@ -110,15 +110,16 @@ pub(crate) fn camera_calibration(f: &FrameRecord, ts: Timestamp) -> CameraCalibr
 }
 
 /// The camera's pose in the world (the inverse of the world-to-camera pose: rotation
-/// R^T, translation -R^T t), as Foxglove's child-in-parent transform.
-pub(crate) fn frame_transform(f: &FrameRecord, ts: Timestamp) -> FrameTransform {
-    let cam_in_world = f.pose.inverse();
+/// R^T, translation -R^T t), as Foxglove's child-in-parent transform `world` -> `child`.
+/// Also the score crate's `visual.mcap` (estimate and ground truth).
+pub fn camera_transform(world_to_camera: &Pose, child: &str, ts: Timestamp) -> FrameTransform {
+    let cam_in_world = world_to_camera.inverse();
     let q = cam_in_world.rotation.quaternion();
     let t = cam_in_world.translation;
     FrameTransform {
         timestamp: Some(ts),
         parent_frame_id: WORLD_FRAME.into(),
-        child_frame_id: CAMERA_FRAME.into(),
+        child_frame_id: child.into(),
         translation: Some(FgVector3 {
             x: t.x,
             y: t.y,
@@ -133,7 +134,8 @@ pub(crate) fn frame_transform(f: &FrameRecord, ts: Timestamp) -> FrameTransform 
     }
 }
 
-fn identity_pose() -> FgPose {
+/// The pose of an entity drawn in world coordinates.
+pub fn identity_pose() -> FgPose {
     FgPose {
         position: Some(FgVector3 {
             x: 0.0,
@@ -255,7 +257,7 @@ mod tests {
     #[test]
     fn transform_is_the_camera_pose_in_the_world() {
         let f = frame(Camera::new(CameraModel::Pinhole, 8, 6, vec![5.0, 6.0, 4.0, 3.0]).unwrap());
-        let tf = frame_transform(&f, Timestamp::new(0, 0));
+        let tf = camera_transform(&f.pose, CAMERA_FRAME, Timestamp::new(0, 0));
         let t = tf.translation.unwrap();
         let c = f.pose.centre();
         assert!(
@@ -286,7 +288,7 @@ mod tests {
             )
             .unwrap(),
         );
-        let c = camera_calibration(&f, Timestamp::new(1, 5));
+        let c = camera_calibration(&f.camera, Timestamp::new(1, 5));
         assert_eq!(
             c.k,
             vec![500.0, 0.0, 320.5, 0.0, 510.0, 240.5, 0.0, 0.0, 1.0]
@@ -333,7 +335,7 @@ mod tests {
         assert_eq!(foxglove_distortion(&fov), None);
         let eq =
             frame(Camera::new(CameraModel::Equirectangular, 100, 50, vec![100.0, 50.0]).unwrap());
-        let c = camera_calibration(&eq, Timestamp::new(0, 0));
+        let c = camera_calibration(&eq.camera, Timestamp::new(0, 0));
         assert_eq!(c.k[0], 0.0, "no pinhole part: uncalibrated for Foxglove");
         assert_eq!(c.distortion_model, "");
     }

@@ -242,9 +242,13 @@ pub(crate) fn write_frames<F: Borrow<FrameRecord>>(
             put(
                 ch.calibration,
                 TOPIC_CALIBRATION,
-                &visual::camera_calibration(f, ts),
+                &visual::camera_calibration(&f.camera, ts),
             )?;
-            put(ch.tf, TOPIC_TF, &visual::frame_transform(f, ts))?;
+            put(
+                ch.tf,
+                TOPIC_TF,
+                &visual::camera_transform(&f.pose, visual::CAMERA_FRAME, ts),
+            )?;
             put(ch.image, TOPIC_IMAGE, &visual::compressed_image(f, ts))?;
             put(ch.labels, TOPIC_LABELS, &to_proto(f))?;
             put(ch.points, TOPIC_POINTS, &visual::point_cloud(f, ts))?;
