@@ -4,23 +4,15 @@
 //! run. (Compiled as an integration test of the `cli` package, which builds the binary.)
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output, Stdio};
+use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 use testkit::files::folder_bytes;
+use testkit::process::ok;
 
 fn pl2map() -> Command {
     let mut c = Command::new(env!("CARGO_BIN_EXE_pl2map"));
     c.arg("--quiet");
     c
-}
-
-fn ok(out: Output, what: &str) -> String {
-    assert!(
-        out.status.success(),
-        "{what} failed: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    String::from_utf8(out.stdout).unwrap()
 }
 
 /// A tiny synthetic scene, its frames table (with the rendered depth) and label tables.

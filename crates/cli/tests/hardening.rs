@@ -3,11 +3,10 @@
 //! a run killed in the middle. Each test runs real processes on the tiny synthetic
 //! pipeline (pipeline/synthetic-tiny.toml, trained for a few steps only).
 
-use std::io::Read as _;
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Output, Stdio};
+use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
-use testkit::process::closed_stdout;
+use testkit::process::{assert_quiet_exit_on_closed_stdout, ok};
 
 fn bin() -> Command {
     let mut c = Command::new(env!("CARGO_BIN_EXE_pl2map"));
@@ -59,16 +58,6 @@ fn run(pipeline: &Path, extra: &[&str]) -> Output {
 
 fn text(bytes: &[u8]) -> String {
     String::from_utf8_lossy(bytes).into_owned()
-}
-
-fn assert_ok(out: &Output, what: &str) {
-    assert!(
-        out.status.success(),
-        "{what}: {}\nstdout:\n{}\nstderr:\n{}",
-        out.status,
-        text(&out.stdout),
-        text(&out.stderr)
-    );
 }
 
 /// Each stage folder's recorded outputs (name -> sha256), from its stage.json.
@@ -124,56 +113,18 @@ fn wait_for(what: &str, mut done: impl FnMut() -> bool) {
     }
 }
 
-fn finish(mut child: Child, what: &str) -> Output {
-    let status = child.wait().unwrap();
-    let mut stdout = Vec::new();
-    let mut stderr = Vec::new();
-    if let Some(mut s) = child.stdout.take() {
-        s.read_to_end(&mut stdout).unwrap();
-    }
-    if let Some(mut s) = child.stderr.take() {
-        s.read_to_end(&mut stderr).unwrap();
-    }
-    let out = Output {
-        status,
-        stdout,
-        stderr,
-    };
-    assert_ok(&out, what);
-    out
-}
-
 #[test]
 fn a_closed_stdout_is_a_quiet_exit_and_the_work_is_done() {
     // A pipeline whose reader went away still does all its work.
     let dir = tempfile::tempdir().unwrap();
     let pipeline = tiny_pipeline(dir.path(), 0);
-    let out = bin()
-        .arg("run")
-        .arg(&pipeline)
-        .args(["--until", "shard"])
-        .stdout(closed_stdout())
-        .stderr(Stdio::piped())
-        .output()
-        .unwrap();
-    let stderr = text(&out.stderr);
-    assert!(out.status.success(), "run: {} {stderr}", out.status);
-    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert_quiet_exit_on_closed_stdout(bin().arg("run").arg(&pipeline).args(["--until", "shard"]));
     assert!(dir.path().join("work/shard/stage.json").is_file());
 
     // The info commands on the scene's COLMAP model and LIMAP folder.
     let gt = dir.path().join("work/synth/synthroom/sfm_gt");
     for (kind, folder) in [("colmap", "colmap"), ("limap", "limap")] {
-        let out = bin()
-            .args([kind, "info"])
-            .arg(gt.join(folder))
-            .stdout(closed_stdout())
-            .stderr(Stdio::piped())
-            .output()
-            .unwrap();
-        let stderr = text(&out.stderr);
-        assert!(out.status.success(), "{kind} info: {} {stderr}", out.status);
-        assert!(!stderr.contains("Broken pipe"), "{stderr}");
+        assert_quiet_exit_on_closed_stdout(bin().args([kind, "info"]).arg(gt.join(folder)));
     }
 }
 
@@ -217,9 +168,8 @@ fn a_second_run_on_the_folder_refuses_or_waits_and_the_outputs_are_one_runs() {
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();
-    finish(first, "the first run");
-    let waited = finish(waiting, "the waiting run");
-    let table = text(&waited.stdout);
+    ok(first.wait_with_output().unwrap(), "the first run");
+    let table = ok(waiting.wait_with_output().unwrap(), "the waiting run");
     for stage in [
         "synth", "ingest", "import", "refine", "shard", "train", "score",
     ] {
@@ -235,7 +185,7 @@ fn a_second_run_on_the_folder_refuses_or_waits_and_the_outputs_are_one_runs() {
     let ours = recorded_outputs(&work);
     let our_metrics = metrics_without_times(&work);
     std::fs::remove_dir_all(&work).unwrap();
-    assert_ok(&run(&pipeline, &[]), "the run alone");
+    ok(run(&pipeline, &[]), "the run alone");
     let one = recorded_outputs(&work);
     assert_eq!(our_metrics, metrics_without_times(&work));
     for ((stage, a), (_, b)) in ours.iter().zip(&one) {
@@ -256,7 +206,7 @@ fn a_second_run_on_the_folder_refuses_or_waits_and_the_outputs_are_one_runs() {
 fn files_the_stages_did_not_write_are_left_or_named() {
     let dir = tempfile::tempdir().unwrap();
     let work = dir.path().join("work");
-    assert_ok(&run(&tiny_pipeline(dir.path(), 0), &[]), "first run");
+    ok(run(&tiny_pipeline(dir.path(), 0), &[]), "first run");
     let folders = [
         "", "synth", "ingest", "import", "refine", "shard", "train", "score",
     ];
@@ -276,9 +226,7 @@ fn files_the_stages_did_not_write_are_left_or_named() {
     assert_eq!(std::fs::read_to_string(&in_scene).unwrap(), "mine: scene");
 
     std::fs::rename(&in_scene, dir.path().join("kept.txt")).unwrap();
-    let out = run(&reseeded, &[]);
-    assert_ok(&out, "the reseeded run");
-    let table = text(&out.stdout);
+    let table = ok(run(&reseeded, &[]), "the reseeded run");
     assert!(
         table.lines().filter(|l| l.contains(" ran ")).count() == 7,
         "{table}"
@@ -335,8 +283,8 @@ fn a_killed_run_leaves_nothing_the_next_run_keeps() {
     std::fs::write(&temp, b"half a table").unwrap();
 
     // No stale lock: the next run starts at once, and removes the leftovers.
-    assert_ok(
-        &run(&pipeline, &["--until", "ingest"]),
+    ok(
+        run(&pipeline, &["--until", "ingest"]),
         "the run after the kill",
     );
     assert!(staging(&synth).is_empty(), "{:?}", staging(&synth));
@@ -349,13 +297,14 @@ fn an_unreadable_record_counts_as_none_in_every_stage() {
     let dir = tempfile::tempdir().unwrap();
     let pipeline = tiny_pipeline(dir.path(), 0);
     let work = dir.path().join("work");
-    assert_ok(&run(&pipeline, &["--until", "shard"]), "first run");
+    ok(run(&pipeline, &["--until", "shard"]), "first run");
     for stage in ["ingest", "import", "refine", "shard"] {
         std::fs::write(work.join(stage).join("stage.json"), b"{ garbage").unwrap();
     }
-    let out = run(&pipeline, &["--until", "shard"]);
-    assert_ok(&out, "the run over unreadable records");
-    let table = text(&out.stdout);
+    let table = ok(
+        run(&pipeline, &["--until", "shard"]),
+        "the run over unreadable records",
+    );
     for stage in ["ingest", "import", "refine", "shard"] {
         let row = table.lines().find(|l| l.starts_with(stage)).unwrap();
         assert!(row.contains(" ran "), "{row}");

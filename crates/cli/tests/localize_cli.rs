@@ -13,20 +13,12 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 use std::sync::OnceLock;
+use testkit::process::ok;
 
 fn pl2map() -> Command {
     let mut c = Command::new(env!("CARGO_BIN_EXE_pl2map"));
     c.arg("--quiet");
     c
-}
-
-fn ok(out: Output, what: &str) -> String {
-    assert!(
-        out.status.success(),
-        "{what} failed: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    String::from_utf8(out.stdout).unwrap()
 }
 
 /// RANSAC iterations at most: a barely trained model leaves few inliers.

@@ -8,6 +8,7 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
+use testkit::process::ok;
 
 fn repo() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
@@ -65,16 +66,6 @@ fn run(pipeline: &Path) -> std::process::Output {
         .unwrap()
 }
 
-fn assert_ok(out: &std::process::Output, what: &str) {
-    assert!(
-        out.status.success(),
-        "{what}: {}\n{}\n{}",
-        out.status,
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    );
-}
-
 #[test]
 fn a_killed_superpoint_run_resumes_to_the_uninterrupted_model_and_scores() {
     let dir = tempfile::tempdir().unwrap();
@@ -108,7 +99,7 @@ fn a_killed_superpoint_run_resumes_to_the_uninterrupted_model_and_scores() {
         !work.join("train/model.ckpt").exists(),
         "killed after training"
     );
-    assert_ok(&run(&pipeline), "the run after the kill");
+    ok(run(&pipeline), "the run after the kill");
     let resumed = std::fs::read(work.join("train/model.ckpt")).unwrap();
     let resumed_poses = std::fs::read(work.join("score/results_points_lines.txt")).unwrap();
     let summary: serde_json::Value =
@@ -117,7 +108,7 @@ fn a_killed_superpoint_run_resumes_to_the_uninterrupted_model_and_scores() {
 
     // The uninterrupted run, in the same place.
     std::fs::remove_dir_all(&work).unwrap();
-    assert_ok(&run(&pipeline), "the uninterrupted run");
+    ok(run(&pipeline), "the uninterrupted run");
     assert!(
         std::fs::read(work.join("train/model.ckpt")).unwrap() == resumed,
         "the resumed model differs from the uninterrupted one"

@@ -12,8 +12,8 @@ fn cut(path: &Path, fraction: f64) {
     std::fs::write(path, &bytes[..keep]).unwrap();
 }
 
-fn damaged(config: &IngestConfig) -> Box<ingest::DamagedImagesError> {
-    match ingest::read_dataset(config, None) {
+fn damaged(config: &IngestConfig, depth_out: Option<&Path>) -> Box<ingest::DamagedImagesError> {
+    match ingest::read_dataset(config, depth_out) {
         Err(IngestError::DamagedImages(e)) => e,
         Err(e) => panic!("expected the damaged-images error, got: {e}"),
         Ok(_) => panic!("damaged images were ingested"),
@@ -31,7 +31,7 @@ fn truncated_png_and_jpeg_are_refused_together_with_their_names() {
     cut(&jpg, 0.6);
     let mut config = IngestConfig::new(DatasetKind::SevenScenes, &scene);
     config.count_check = false;
-    let e = damaged(&config);
+    let e = damaged(&config, None);
     assert_eq!(e.total, 3);
     let names: Vec<&Path> = e.damaged.iter().map(|(p, _)| p.as_path()).collect();
     assert_eq!(names, [png.as_path(), jpg.as_path()]);
@@ -61,7 +61,7 @@ fn a_flipped_byte_in_a_png_is_refused() {
     std::fs::write(&png, bytes).unwrap();
     let mut config = IngestConfig::new(DatasetKind::SevenScenes, &scene);
     config.count_check = false;
-    let e = damaged(&config);
+    let e = damaged(&config, None);
     assert_eq!(e.damaged.len(), 1);
     assert!(e.damaged[0].1.contains("CRC"), "{}", e.damaged[0].1);
 }
@@ -85,10 +85,7 @@ fn real_sample_frames_cut_short_are_refused() {
     config.count_check = false;
     config.depth = DepthOption::Raw;
     let out = dir.path().join("depth-out");
-    let e = match ingest::read_dataset(&config, Some(&out)) {
-        Err(IngestError::DamagedImages(e)) => e,
-        other => panic!("expected the damaged-images error, got {:?}", other.err()),
-    };
+    let e = damaged(&config, Some(&out));
     let names: Vec<&Path> = e.damaged.iter().map(|(p, _)| p.as_path()).collect();
     assert_eq!(names, [jpg.as_path(), depth.as_path()]);
     assert!(
