@@ -26,13 +26,32 @@ impl Encoding {
             None
         }
     }
+}
 
-    pub fn as_str(self) -> &'static str {
-        match self {
-            Encoding::Png => "PNG",
-            Encoding::Jpeg => "JPEG",
+/// Every `.png`, `.jpg` and `.jpeg` file under `dir` (recursively, extension in any
+/// case), sorted by path: the image folders `pl2map localize`, `pl2map features` and the
+/// front-end bench read.
+pub fn list(dir: &std::path::Path) -> std::io::Result<Vec<std::path::PathBuf>> {
+    let mut out = Vec::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for entry in std::fs::read_dir(&d)? {
+            let path = entry?.path();
+            if path.is_dir() {
+                stack.push(path);
+                continue;
+            }
+            let ext = path
+                .extension()
+                .and_then(|e| e.to_str())
+                .map(str::to_ascii_lowercase);
+            if matches!(ext.as_deref(), Some("png" | "jpg" | "jpeg")) {
+                out.push(path);
+            }
         }
     }
+    out.sort();
+    Ok(out)
 }
 
 const PNG_SIGNATURE: &[u8] = &[0x89, b'P', b'N', b'G', b'\r', b'\n', 0x1A, b'\n'];

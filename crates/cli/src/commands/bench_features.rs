@@ -59,24 +59,6 @@ fn superpoint_seconds(
     })
 }
 
-fn collect(dir: &Path, out: &mut Vec<PathBuf>) -> std::io::Result<()> {
-    let mut entries: Vec<_> = std::fs::read_dir(dir)?.collect::<Result<_, _>>()?;
-    entries.sort_by_key(|e| e.path());
-    for e in entries {
-        let p = e.path();
-        if p.is_dir() {
-            collect(&p, out)?;
-        } else if matches!(
-            p.extension().and_then(|e| e.to_str()),
-            Some("png" | "jpg" | "jpeg")
-        ) && !p.to_string_lossy().contains(".depth.")
-        {
-            out.push(p);
-        }
-    }
-    Ok(())
-}
-
 pub fn run(args: Args) -> anyhow::Result<()> {
     let dir = match args.images {
         Some(d) => d,
@@ -94,8 +76,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             d
         }
     };
-    let mut paths = Vec::new();
-    collect(&dir, &mut paths).with_context(|| format!("listing {}", dir.display()))?;
+    // 7-Scenes keeps its depth maps (`*.depth.png`) next to the colour images.
+    let mut paths: Vec<PathBuf> = tables::image_file::list(&dir)
+        .with_context(|| format!("listing {}", dir.display()))?
+        .into_iter()
+        .filter(|p| !p.to_string_lossy().contains(".depth."))
+        .collect();
     paths.truncate(args.limit);
     if paths.is_empty() {
         bail!("no images under {}", dir.display());

@@ -31,34 +31,15 @@ pub struct Args {
     dense: bool,
 }
 
-fn collect(dir: &Path, out: &mut Vec<PathBuf>) -> std::io::Result<()> {
-    let mut entries: Vec<_> = std::fs::read_dir(dir)?.collect::<Result<_, _>>()?;
-    entries.sort_by_key(|e| e.path());
-    for e in entries {
-        let p = e.path();
-        if p.is_dir() {
-            collect(&p, out)?;
-        } else if matches!(
-            p.extension()
-                .and_then(|e| e.to_str())
-                .map(str::to_ascii_lowercase)
-                .as_deref(),
-            Some("png" | "jpg" | "jpeg")
-        ) && !p.to_string_lossy().contains(".depth.")
-        {
-            out.push(p);
-        }
-    }
-    Ok(())
-}
-
 /// (name, path) of every image.
 fn image_list(images: &Path) -> anyhow::Result<Vec<(String, PathBuf)>> {
     if images.is_dir() {
-        let mut paths = Vec::new();
-        collect(images, &mut paths).with_context(|| format!("listing {}", images.display()))?;
+        let paths = tables::image_file::list(images)
+            .with_context(|| format!("listing {}", images.display()))?;
+        // 7-Scenes keeps its depth maps (`*.depth.png`) next to the colour images.
         return paths
             .into_iter()
+            .filter(|p| !p.to_string_lossy().contains(".depth."))
             .map(|p| {
                 let rel = p.strip_prefix(images).unwrap_or(&p);
                 let name = rel

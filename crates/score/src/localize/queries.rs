@@ -84,8 +84,21 @@ pub fn parse_query_list(text: &str, path: &Path) -> Vec<Query> {
 /// `/`-separated path relative to `dir`, in byte order, all with `camera`. A name with
 /// whitespace (which the results file cannot hold) becomes a failed query.
 pub fn folder_queries(dir: &Path, camera: &Camera) -> Result<Vec<Query>, ScoreError> {
-    let mut names = Vec::new();
-    collect_images(dir, dir, &mut names)?;
+    let files = tables::image_file::list(dir).map_err(|source| ScoreError::Io {
+        path: dir.to_path_buf(),
+        source,
+    })?;
+    let mut names: Vec<String> = files
+        .iter()
+        .map(|path| {
+            let rel = path.strip_prefix(dir).unwrap_or(path);
+            let parts: Vec<String> = rel
+                .components()
+                .map(|c| c.as_os_str().to_string_lossy().into_owned())
+                .collect();
+            parts.join("/")
+        })
+        .collect();
     names.sort();
     Ok(names
         .into_iter()
@@ -103,44 +116,6 @@ pub fn folder_queries(dir: &Path, camera: &Camera) -> Result<Vec<Query>, ScoreEr
         .collect())
 }
 
-fn collect_images(root: &Path, dir: &Path, out: &mut Vec<String>) -> Result<(), ScoreError> {
-    let io = |source| ScoreError::Io {
-        path: dir.to_path_buf(),
-        source,
-    };
-    for entry in std::fs::read_dir(dir).map_err(io)? {
-        let path = entry.map_err(io)?.path();
-        if path.is_dir() {
-            collect_images(root, &path, out)?;
-            continue;
-        }
-        let ext = path
-            .extension()
-            .and_then(|e| e.to_str())
-            .map(str::to_ascii_lowercase);
-        if matches!(ext.as_deref(), Some("png" | "jpg" | "jpeg")) {
-            let rel = path.strip_prefix(root).unwrap_or(&path);
-            let parts: Vec<String> = rel
-                .components()
-                .map(|c| c.as_os_str().to_string_lossy().into_owned())
-                .collect();
-            out.push(parts.join("/"));
-        }
-    }
-    Ok(())
-}
-
-/// PNG or JPEG, from the file's first bytes (not its name).
-pub fn sniff_format(bytes: &[u8]) -> Option<ImageFormat> {
-    if bytes.starts_with(&[0x89, b'P', b'N', b'G', 0x0D, 0x0A, 0x1A, 0x0A]) {
-        Some(ImageFormat::Png)
-    } else if bytes.starts_with(&[0xFF, 0xD8, 0xFF]) {
-        Some(ImageFormat::Jpeg)
-    } else {
-        None
-    }
-}
-
 /// The image of a query as a frame to localise (no ground truth: identity pose, never
 /// read), or why it cannot be one. Decoding and the size check against the camera
 /// happen in the localiser, as for the score stage's frames.
@@ -148,7 +123,7 @@ pub fn load_query(images: &Path, q: &Query) -> Result<TestFrame, String> {
     let camera = q.camera.clone()?;
     let path: PathBuf = images.join(&q.name);
     let bytes = std::fs::read(&path).map_err(|e| format!("{}: {e}", path.display()))?;
-    let format = sniff_format(&bytes)
+    let format = ImageFormat::sniff(&bytes)
         .ok_or_else(|| format!("{}: neither a PNG nor a JPEG file", path.display()))?;
     Ok(TestFrame {
         record: FrameRecord::unlabelled(
