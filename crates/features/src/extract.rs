@@ -24,6 +24,23 @@ pub struct ImageFeatures {
 }
 
 impl ImageFeatures {
+    /// A front-end's detections with the segments and their T descriptors each.
+    pub fn from_detections(
+        det: crate::Detections,
+        segments: Vec<[f64; 4]>,
+        line_descriptors: Vec<f32>,
+        samples_per_line: usize,
+    ) -> Self {
+        ImageFeatures {
+            keypoints: det.keypoints,
+            descriptors: det.descriptors,
+            segments,
+            line_descriptors,
+            samples_per_line,
+            dim: det.dim,
+        }
+    }
+
     pub fn num_keypoints(&self) -> usize {
         self.keypoints.len()
     }

@@ -224,14 +224,12 @@ pub trait FrontEnd: Send + Sync {
         let det = self.detect(img)?;
         let segments = self.segments(img)?;
         let line_descriptors = self.describe_lines(img, &segments)?;
-        Ok(crate::ImageFeatures {
-            keypoints: det.keypoints,
-            descriptors: det.descriptors,
+        Ok(crate::ImageFeatures::from_detections(
+            det,
             segments,
             line_descriptors,
-            samples_per_line: self.samples_per_line(),
-            dim: self.dim(),
-        })
+            self.samples_per_line(),
+        ))
     }
 
     /// [`FrontEnd::extract`] over a batch, results in input order.

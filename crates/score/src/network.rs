@@ -146,14 +146,12 @@ fn front_end(
                 .to_vec();
             let det = fe.detect(&gray).map_err(fe_err)?;
             let line_descriptors = fe.describe_lines(&gray, &segments).map_err(fe_err)?;
-            features::ImageFeatures {
-                keypoints: det.keypoints,
-                descriptors: det.descriptors,
+            features::ImageFeatures::from_detections(
+                det,
                 segments,
                 line_descriptors,
-                samples_per_line: fe.samples_per_line(),
-                dim: fe.dim(),
-            }
+                fe.samples_per_line(),
+            )
         }
     };
     Ok(FrontEnd {

@@ -290,14 +290,12 @@ impl FrontEnd for SuperPointFrontEnd {
         let det = self.detections(&maps, scale);
         let segments = self.segments(img)?;
         let line_descriptors = self.sample_at(&maps, scale, &self.line_positions(&segments));
-        Ok(features::ImageFeatures {
-            keypoints: det.keypoints,
-            descriptors: det.descriptors,
+        Ok(features::ImageFeatures::from_detections(
+            det,
             segments,
             line_descriptors,
-            samples_per_line: self.config.samples_per_line,
-            dim: SUPERPOINT_DIM,
-        })
+            self.config.samples_per_line,
+        ))
     }
 
     fn extract_batch(

@@ -8,7 +8,6 @@
 
 use crate::error::SuperPointError;
 use burn::tensor::TensorData;
-use sha2::{Digest, Sha256};
 use std::path::Path;
 
 /// One convolution: name, output and input channels, kernel size.
@@ -69,10 +68,13 @@ pub fn parameter_count() -> usize {
         .sum()
 }
 
-/// sha256 of a file, hex.
+/// sha256 of a file, hex (the stage records' hash, `stage::sha256_file`).
 pub fn file_sha256(path: &Path) -> Result<String, SuperPointError> {
-    let bytes = std::fs::read(path).map_err(|e| SuperPointError::weights(path, None, e))?;
-    Ok(hex::encode(Sha256::digest(&bytes)))
+    stage::sha256_file(path).map_err(|e| match e {
+        // The error names the file already.
+        stage::StageError::Io { source, .. } => SuperPointError::weights(path, None, source),
+        other => SuperPointError::weights(path, None, other),
+    })
 }
 
 impl Weights {
