@@ -17,6 +17,10 @@ use burn::tensor::{Tensor, TensorMetadata, TensorPrimitive, backend::Backend};
 
 /// A burn backend with the softmax this network uses.
 pub trait Pl2MapBackend: Backend {
+    /// Whether tensors live in host memory, so that reading one into a `Vec` and back is
+    /// a move, not a transfer (the fused Adam step, `adam.rs`).
+    const HOST_MEMORY: bool = false;
+
     /// Softmax over the last dimension.
     fn softmax_last(x: FloatTensor<Self>) -> FloatTensor<Self> {
         let last = x.shape().num_dims() - 1;
@@ -24,10 +28,14 @@ pub trait Pl2MapBackend: Backend {
     }
 }
 
-impl Pl2MapBackend for burn::backend::Flex {}
+impl Pl2MapBackend for burn::backend::Flex {
+    const HOST_MEMORY: bool = true;
+}
 
 #[cfg(feature = "ndarray")]
-impl Pl2MapBackend for burn::backend::NdArray {}
+impl Pl2MapBackend for burn::backend::NdArray {
+    const HOST_MEMORY: bool = true;
+}
 
 #[cfg(feature = "cuda")]
 impl Pl2MapBackend for burn::backend::Cuda {}

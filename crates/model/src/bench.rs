@@ -348,7 +348,9 @@ fn median(times: &[f64]) -> f64 {
     }
 }
 
-fn run_burn<B: AutodiffBackend + crate::backend::Pl2MapBackend>(
+fn run_burn<
+    B: AutodiffBackend<InnerBackend: crate::backend::Pl2MapBackend> + crate::backend::Pl2MapBackend,
+>(
     cfg: &StepBenchConfig,
     dim: usize,
 ) -> Result<StepBenchRow, ModelError> {

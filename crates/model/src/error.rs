@@ -25,6 +25,8 @@ pub enum ModelError {
         found: usize,
         limit: usize,
     },
+    #[error("{0}")]
+    DeviceUnavailable(String),
     #[error("benchmark: {0}")]
     Bench(String),
     #[error("I/O error on {path}: {source}")]

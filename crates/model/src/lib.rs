@@ -11,6 +11,7 @@
 //! softmax (see `backend.rs`), implemented for Flex, NdArray, CUDA and their `Autodiff`
 //! wrappers. [`CpuBackend`] (burn's Flex backend) is the default; the `cuda` feature adds
 //! [`CudaBackend`] and the `ndarray` feature burn's NdArray backend (kept for comparison).
+//! [`Device`] is how runs choose between CPU and CUDA (`--device cpu|cuda[:N]`).
 //!
 //! Benchmark: [`bench::run_step_benchmark`], printed by
 //! `cargo run --release -p model --example step_bench` (PyTorch side with
@@ -18,11 +19,13 @@
 //!
 //! The crate re-exports `burn` so that dependants use exactly the pinned version.
 
+pub mod adam;
 pub mod attention;
 pub mod backend;
 pub mod bench;
 pub mod config;
 pub mod denormals;
+pub mod device;
 pub mod dropout;
 pub mod error;
 pub mod graph;
@@ -40,6 +43,7 @@ mod testutil;
 pub use backend::Pl2MapBackend;
 pub use burn;
 pub use config::{LayerKind, ModelConfig};
+pub use device::Device;
 pub use dropout::Dropout;
 pub use error::ModelError;
 pub use init::LAYER_NORM_EPS;

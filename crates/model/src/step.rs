@@ -1,5 +1,6 @@
 //! One training step: forward, loss, backward, Adam.
 
+use crate::adam::FusedAdam;
 use crate::backend::Pl2MapBackend;
 use crate::config::ModelConfig;
 use crate::dropout::Dropout;
@@ -9,19 +10,31 @@ use crate::network::Pl2Map;
 use crate::sample::Sample;
 use burn::module::{AutodiffModule, Module};
 use burn::optim::adaptor::OptimizerAdaptor;
-use burn::optim::{Adam, AdamConfig, GradientsParams, Optimizer};
+use burn::optim::{AdamConfig, GradientsParams, Optimizer};
 use burn::tensor::backend::AutodiffBackend;
 
 /// Adam as the reference runs it (PyTorch defaults: betas 0.9 / 0.999, eps 1e-8, no weight
 /// decay). Burn's own default epsilon is 1e-5.
+pub const ADAM_BETA_1: f32 = 0.9;
+pub const ADAM_BETA_2: f32 = 0.999;
+pub const ADAM_EPSILON: f32 = 1e-8;
+
+/// burn's Adam with the reference's settings (what [`FusedAdam`] computes).
 pub fn adam_config() -> AdamConfig {
     AdamConfig::new()
-        .with_beta_1(0.9)
-        .with_beta_2(0.999)
-        .with_epsilon(1e-8)
+        .with_beta_1(ADAM_BETA_1)
+        .with_beta_2(ADAM_BETA_2)
+        .with_epsilon(ADAM_EPSILON)
 }
 
-pub type Pl2MapOptimizer<B> = OptimizerAdaptor<Adam, Pl2Map<B>, B>;
+pub type Pl2MapOptimizer<B> = OptimizerAdaptor<FusedAdam, Pl2Map<B>, B>;
+
+/// A fresh optimiser: Adam with the reference's settings, fused on the CPU (`adam.rs`:
+/// the same arithmetic and state as burn's Adam, in one pass per parameter).
+pub fn new_optimizer<B: AutodiffBackend<InnerBackend: Pl2MapBackend> + Pl2MapBackend>()
+-> Pl2MapOptimizer<B> {
+    OptimizerAdaptor::from(FusedAdam::new(ADAM_BETA_1, ADAM_BETA_2, ADAM_EPSILON))
+}
 
 /// Per-step inputs that the trainer's schedule decides.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -45,7 +58,7 @@ pub struct StepReport {
 }
 
 /// A network, its optimiser and its loss configuration.
-pub struct TrainState<B: AutodiffBackend + Pl2MapBackend> {
+pub struct TrainState<B: AutodiffBackend<InnerBackend: Pl2MapBackend> + Pl2MapBackend> {
     // Option so that a step can move the network through the optimiser (burn's
     // optimisers take and return it by value); always Some between steps.
     model: Option<Pl2Map<B>>,
@@ -53,12 +66,12 @@ pub struct TrainState<B: AutodiffBackend + Pl2MapBackend> {
     pub loss: LossConfig,
 }
 
-impl<B: AutodiffBackend + Pl2MapBackend> TrainState<B> {
+impl<B: AutodiffBackend<InnerBackend: Pl2MapBackend> + Pl2MapBackend> TrainState<B> {
     pub fn new(model: Pl2Map<B>, loss: LossConfig) -> Result<Self, ModelError> {
         loss.validate()?;
         Ok(TrainState {
             model: Some(model),
-            optimizer: adam_config().init(),
+            optimizer: new_optimizer(),
             loss,
         })
     }

@@ -120,6 +120,22 @@ pub struct Pipeline {
 pub const WITHOUT_REFINE: &str = "without-refine";
 
 impl Pipeline {
+    /// Runs the network of `[train]` and `[score]` on `device` (`pl2map run --device`),
+    /// whatever their sections say. A device this build has no backend for is refused.
+    pub fn set_device(&mut self, device: train::Device) -> Result<()> {
+        device.check_built().map_err(|e| PipelineError::Config {
+            path: self.origin.clone(),
+            message: format!("--device: {e}"),
+        })?;
+        if let Some(t) = self.file.train.as_mut() {
+            t.device = device;
+        }
+        if let Some(s) = self.file.score.as_mut() {
+            s.device = device;
+        }
+        Ok(())
+    }
+
     /// Reads and resolves a pipeline file; relative paths are relative to its folder.
     pub fn load(path: &Path) -> Result<Pipeline> {
         Pipeline::load_with_work(path, None)

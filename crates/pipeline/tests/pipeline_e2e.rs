@@ -252,6 +252,15 @@ fn committed_pipeline_files_resolve() {
     assert!(d.file.train.is_some() && d.file.score.is_some());
     let t = Pipeline::load(&tiny_pipeline()).unwrap();
     assert!(t.synth.as_ref().unwrap().tiny);
+    // The reference's graph network on the main job's data: the same data sections.
+    let g = Pipeline::load(&dir.join("synthetic-paper.toml")).unwrap();
+    assert_eq!(g.file.synth, d.file.synth);
+    assert_eq!(g.file.refine, d.file.refine);
+    assert_eq!(g.file.shard, d.file.shard);
+    let gt = g.file.train.as_ref().unwrap();
+    assert_eq!(gt.model.layers.len(), 5);
+    assert_eq!(gt.model.head_hidden, vec![512, 1024, 512]);
+    assert_eq!(gt.iterations, 30_000);
     // The paper's recipes: SuperPoint at D = 256, the graph network, alltracks, the
     // reference's schedule and reprojection scale per dataset.
     for (file, tau_max, learning_rate, iterations) in [

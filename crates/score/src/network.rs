@@ -1,6 +1,6 @@
 //! The network localiser: a trained checkpoint through `train::Predictor` (the
-//! front-end and the PL2Map network on the CPU backend). Behind the `network` feature (on by default)
-//! so the rest of the crate builds without burn.
+//! front-end on the CPU, the PL2Map network on the CPU backend or a CUDA GPU). Behind
+//! the `network` feature (on by default) so the rest of the crate builds without burn.
 
 use crate::error::ScoreError;
 use crate::localiser::{
@@ -22,8 +22,13 @@ pub struct NetworkLocaliser {
 impl NetworkLocaliser {
     /// Loads a checkpoint (`model.ckpt` or `checkpoint.ckpt` of `pl2map train`).
     pub fn load(checkpoint: &Path) -> Result<Self, ScoreError> {
+        Self::load_on(checkpoint, train::Device::Cpu)
+    }
+
+    /// [`NetworkLocaliser::load`] with the network on `device`.
+    pub fn load_on(checkpoint: &Path, device: train::Device) -> Result<Self, ScoreError> {
         // The model crate's errors name the checkpoint file already.
-        let predictor = Predictor::load(checkpoint).map_err(|e| ScoreError::Model {
+        let predictor = Predictor::load_on(checkpoint, device).map_err(|e| ScoreError::Model {
             reason: e.to_string(),
         })?;
         Ok(NetworkLocaliser {

@@ -65,6 +65,13 @@ pub struct ScoreStageConfig {
     #[serde(skip_serializing_if = "is_one")]
     #[arg(long, default_value_t = ScoreStageConfig::default().query_segment_scale)]
     pub query_segment_scale: f64,
+    /// Where the network runs: `cpu`, `cuda` or `cuda:N` (builds with the `cuda`
+    /// feature), whatever device trained it (SuperPoint too; SIFT, LSD and RANSAC run on
+    /// the CPU).
+    #[cfg(feature = "network")]
+    #[serde(skip_serializing_if = "train::Device::is_cpu")]
+    #[arg(long, default_value_t = train::Device::Cpu)]
+    pub device: train::Device,
 }
 
 fn is_one(v: &f64) -> bool {
@@ -83,6 +90,8 @@ impl Default for ScoreStageConfig {
             visual: false,
             query_segments: None,
             query_segment_scale: 1.0,
+            #[cfg(feature = "network")]
+            device: train::Device::Cpu,
         }
     }
 }
@@ -148,6 +157,11 @@ pub fn run(
 ) -> Result<Done<ScoreStageOutput>, ScoreError> {
     let resolved = config.resolve();
     resolved.validate()?;
+    // Before anything is read or written.
+    #[cfg(feature = "network")]
+    config.device.check_built().map_err(|e| ScoreError::Model {
+        reason: e.to_string(),
+    })?;
     let (split, source_hash) = match source {
         Source::Network(model) => (Split::Test, stage::sha256_file(model)?),
         Source::Oracle => (Split::Train, "oracle".to_string()),
@@ -163,21 +177,30 @@ pub fn run(
         }
         None => None,
     };
-    // The record's configuration is the resolved one, with `visual` only when on: a
-    // stage run without it records the same hash as before the option existed.
+    // The record's configuration is the resolved one, with `visual` only when on and
+    // the device only when not the CPU: a stage run without them records the same hash
+    // as before the options existed.
     #[derive(Serialize)]
-    struct WithVisual<'a> {
+    struct Recorded<'a> {
         #[serde(flatten)]
         config: &'a ScoreConfig,
+        #[serde(skip_serializing_if = "std::ops::Not::not")]
         visual: bool,
+        #[serde(skip_serializing_if = "Option::is_none")]
+        device: Option<String>,
     }
-    let stage = if config.visual {
+    #[cfg(feature = "network")]
+    let device = (!config.device.is_cpu()).then(|| config.device.to_string());
+    #[cfg(not(feature = "network"))]
+    let device = None;
+    let stage = if config.visual || device.is_some() {
         Stage::new(
             STAGE,
             out,
-            &WithVisual {
+            &Recorded {
                 config: &resolved,
-                visual: true,
+                visual: config.visual,
+                device,
             },
             inputs,
         )?
@@ -193,7 +216,7 @@ pub fn run(
             let mut localiser: Box<dyn Localiser> = match source {
                 #[cfg(feature = "network")]
                 Source::Network(model) => {
-                    let mut l = crate::NetworkLocaliser::load(model)?;
+                    let mut l = crate::NetworkLocaliser::load_on(model, config.device)?;
                     if let Some(q) = query_segments.clone() {
                         l = l.with_query_segments(q);
                     }

@@ -29,6 +29,12 @@ pub enum SuperPointError {
         expected: String,
         found: String,
     },
+    /// A GPU asked of a build without the `cuda` feature.
+    #[error(
+        "SuperPoint on cuda:{0}: this pl2map was built without CUDA; build it with `cargo \
+         build --release --locked -p cli --features cuda`"
+    )]
+    NoCuda(usize),
     #[error(transparent)]
     Features(#[from] features::FeatureError),
 }

@@ -23,10 +23,19 @@ use std::sync::Arc;
 /// records a weights hash (a checkpoint's does), the file must have that hash. The
 /// returned front-end's configuration records the file's hash.
 pub fn front_end(config: &FrontEndConfig) -> Result<Arc<dyn FrontEnd>, SuperPointError> {
+    front_end_on(config, None)
+}
+
+/// [`front_end`] with SuperPoint's network on CUDA GPU `gpu` (None: the CPU; builds
+/// with the `cuda` feature). SIFT and LSD run on the CPU either way.
+pub fn front_end_on(
+    config: &FrontEndConfig,
+    gpu: Option<usize>,
+) -> Result<Arc<dyn FrontEnd>, SuperPointError> {
     config.validate()?;
     match config.kind {
         FrontEndKind::Sift => Ok(Arc::new(SiftFrontEnd::new(config.clone())?)),
-        FrontEndKind::Superpoint => Ok(Arc::new(SuperPointFrontEnd::from_config(config)?)),
+        FrontEndKind::Superpoint => Ok(Arc::new(SuperPointFrontEnd::from_config_on(config, gpu)?)),
     }
 }
 
@@ -42,8 +51,40 @@ pub fn weights_sha256(config: &FrontEndConfig) -> Result<Option<String>, SuperPo
 /// SuperPoint keypoints and descriptors, LSD segments (docs/method.md section 2b).
 pub struct SuperPointFrontEnd {
     config: FrontEndConfig,
-    net: SuperPointNet<SuperPointBackend>,
-    device: burn::tensor::Device<SuperPointBackend>,
+    net: Net,
+}
+
+/// The network on the device it runs on.
+enum Net {
+    Cpu(SuperPointNet<SuperPointBackend>),
+    #[cfg(feature = "cuda")]
+    Cuda(
+        SuperPointNet<burn::backend::Cuda>,
+        burn::backend::cuda::CudaDevice,
+    ),
+}
+
+impl Net {
+    fn new(weights: &Weights, gpu: Option<usize>) -> Result<Self, SuperPointError> {
+        match gpu {
+            None => Ok(Net::Cpu(SuperPointNet::new(weights, &Default::default()))),
+            #[cfg(feature = "cuda")]
+            Some(i) => {
+                let device = burn::backend::cuda::CudaDevice::new(i);
+                Ok(Net::Cuda(SuperPointNet::new(weights, &device), device))
+            }
+            #[cfg(not(feature = "cuda"))]
+            Some(i) => Err(SuperPointError::NoCuda(i)),
+        }
+    }
+
+    fn dense(&self, pixels: &[&[f32]], width: usize, height: usize) -> Vec<DenseMaps> {
+        match self {
+            Net::Cpu(net) => net.dense(pixels, width, height, &Default::default()),
+            #[cfg(feature = "cuda")]
+            Net::Cuda(net, device) => net.dense(pixels, width, height, device),
+        }
+    }
 }
 
 /// One image as the network sees it.
@@ -59,6 +100,14 @@ impl SuperPointFrontEnd {
     /// Reads the weights the configuration names and checks their hash when it records
     /// one.
     pub fn from_config(config: &FrontEndConfig) -> Result<Self, SuperPointError> {
+        Self::from_config_on(config, None)
+    }
+
+    /// [`SuperPointFrontEnd::from_config`] with the network on CUDA GPU `gpu`.
+    pub fn from_config_on(
+        config: &FrontEndConfig,
+        gpu: Option<usize>,
+    ) -> Result<Self, SuperPointError> {
         let path = config
             .superpoint
             .weights_path()
@@ -75,24 +124,30 @@ impl SuperPointFrontEnd {
         }
         let mut config = config.clone();
         config.superpoint.weights = Some(std::path::absolute(&path).unwrap_or(path));
-        Self::from_weights(config, &weights)
+        Self::from_weights_on(config, &weights, gpu)
     }
 
     /// A front-end over weights in memory (their hash, if any, is recorded).
     pub fn from_weights(
+        config: FrontEndConfig,
+        weights: &Weights,
+    ) -> Result<Self, SuperPointError> {
+        Self::from_weights_on(config, weights, None)
+    }
+
+    fn from_weights_on(
         mut config: FrontEndConfig,
         weights: &Weights,
+        gpu: Option<usize>,
     ) -> Result<Self, SuperPointError> {
         config.kind = FrontEndKind::Superpoint;
         config.validate()?;
         if weights.sha256.is_some() {
             config.superpoint.weights_sha256 = weights.sha256.clone();
         }
-        let device = Default::default();
         Ok(SuperPointFrontEnd {
-            net: SuperPointNet::new(weights, &device),
+            net: Net::new(weights, gpu)?,
             config,
-            device,
         })
     }
 
@@ -140,7 +195,7 @@ impl SuperPointFrontEnd {
                 .filter(|&i| (prepared[i].width, prepared[i].height) == (w, h))
                 .collect();
             let pix: Vec<&[f32]> = idx.iter().map(|&i| prepared[i].pixels.as_slice()).collect();
-            for (i, m) in idx.iter().zip(self.net.dense(&pix, w, h, &self.device)) {
+            for (i, m) in idx.iter().zip(self.net.dense(&pix, w, h)) {
                 out[*i] = Some(m);
             }
         }

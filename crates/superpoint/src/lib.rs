@@ -20,6 +20,6 @@ pub mod net;
 pub mod weights;
 
 pub use error::SuperPointError;
-pub use frontend::{SuperPointFrontEnd, front_end, weights_sha256};
+pub use frontend::{SuperPointFrontEnd, front_end, front_end_on, weights_sha256};
 pub use net::{DenseMaps, SuperPointBackend, SuperPointNet};
 pub use weights::{LAYERS, StateDict, Weights, file_sha256, parameter_count};

@@ -19,7 +19,7 @@ use model::burn::record::{
 use model::burn::tensor::Tensor;
 use model::burn::tensor::backend::{AutodiffBackend, Backend};
 use model::step::Pl2MapOptimizer;
-use model::{Pl2Map, Pl2MapBackend, adam_config};
+use model::{Pl2Map, Pl2MapBackend};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::io::Write;
@@ -134,7 +134,7 @@ pub fn weight_bytes<B: Backend>(model: &Pl2Map<B>) -> Result<Vec<u8>, TrainError
 }
 
 /// Writes a checkpoint atomically; `optimizer = None` writes weights only.
-pub fn save<B: AutodiffBackend + Pl2MapBackend>(
+pub fn save<B: AutodiffBackend<InnerBackend: Pl2MapBackend> + Pl2MapBackend>(
     path: &Path,
     header: &CheckpointHeader,
     model: &Pl2Map<B>,
@@ -255,7 +255,7 @@ impl CheckpointFile {
     }
 
     /// Adam with this checkpoint's state (None for a weights-only file).
-    pub fn optimizer<B: AutodiffBackend + Pl2MapBackend>(
+    pub fn optimizer<B: AutodiffBackend<InnerBackend: Pl2MapBackend> + Pl2MapBackend>(
         &self,
         device: &B::Device,
     ) -> Result<Option<Pl2MapOptimizer<B>>, TrainError> {
@@ -266,9 +266,7 @@ impl CheckpointFile {
             Recorder::<B>::load(&Rec::default(), self.optimizer.clone(), device)
                 .map_err(|e| ck_err(&self.path, format!("optimiser state: {e}")))?;
         Ok(Some(
-            adam_config()
-                .init()
-                .load_record(record.0.into_iter().collect()),
+            model::step::new_optimizer::<B>().load_record(record.0.into_iter().collect()),
         ))
     }
 }

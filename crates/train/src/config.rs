@@ -5,7 +5,7 @@ use crate::augment::AugmentConfig;
 use crate::error::TrainError;
 use crate::sample::Limits;
 use features::FrontEndConfig;
-use model::{LossConfig, ModelConfig};
+use model::{Device, LossConfig, ModelConfig};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
@@ -93,6 +93,22 @@ pub struct TrainConfig {
     /// (4 MiB by default) on the reader thread. Changes speed only, never values.
     #[arg(long, default_value_t = TrainConfig::default().chunk_cache_mib)]
     pub chunk_cache_mib: usize,
+    /// Where the network trains: `cpu`, `cuda` or `cuda:N` (builds with the `cuda`
+    /// feature). Left out of the file when `cpu`, so CPU runs keep their records.
+    #[serde(skip_serializing_if = "Device::is_cpu")]
+    #[arg(long, default_value_t = TrainConfig::default().device)]
+    pub device: Device,
+    /// Threads that prepare samples (read, decode, augment, describe) ahead of the
+    /// step; 0: the cores the step leaves ([`TrainConfig::sample_workers`]). Each
+    /// sample's randomness comes from its stream position, so the samples, and the
+    /// weights, are the same for any number. Speed only: not part of the stage record.
+    #[serde(skip_serializing_if = "is_zero")]
+    #[arg(long, default_value_t = TrainConfig::default().workers)]
+    pub workers: usize,
+}
+
+fn is_zero(v: &usize) -> bool {
+    *v == 0
 }
 
 impl std::fmt::Display for LrSchedule {
@@ -135,6 +151,8 @@ impl Default for TrainConfig {
             prefetch: 4,
             descriptor_cache_mib: 1024,
             chunk_cache_mib: 256,
+            device: Device::Cpu,
+            workers: 0,
         }
     }
 }
@@ -211,7 +229,31 @@ impl TrainConfig {
         if self.query_max_keypoints == 0 {
             return bad("query_max_keypoints must be at least 1".into());
         }
+        self.device.check_built().or_else(|e| bad(e.to_string()))?;
         Ok(())
+    }
+
+    /// The sample workers of a run: `workers`, or when 0 the cores the step leaves. On
+    /// the CPU the step's matrix products take every core, so one worker prepares ahead
+    /// of it; with CUDA the step needs one core to drive the GPU and the rest prepare.
+    pub fn sample_workers(&self) -> usize {
+        if self.workers > 0 {
+            return self.workers;
+        }
+        let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+        match self.device {
+            Device::Cpu => 1,
+            Device::Cuda(_) => cores.saturating_sub(1).max(1),
+        }
+    }
+
+    /// The configuration as a stage record hashes it: without the settings that change
+    /// only the speed of a run (`workers`), so a rerun with more workers is up to date.
+    pub fn for_record(&self) -> TrainConfig {
+        TrainConfig {
+            workers: 0,
+            ..self.clone()
+        }
     }
 
     /// A network of a few thousand parameters on 4 samples per line and at most 50 query

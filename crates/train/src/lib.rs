@@ -28,6 +28,8 @@ pub mod trainer;
 
 pub use config::{LrSchedule, TrainConfig};
 pub use error::TrainError;
+/// Where a run trains or predicts (`--device cpu|cuda[:N]`).
+pub use model::Device;
 pub use predict::{ImagePrediction, PredictedLine, PredictedPoint, Predictor};
 pub use sample::Limits;
 pub use train_stage::{TrainOutput, TrainStageOptions};

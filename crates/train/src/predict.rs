@@ -12,7 +12,9 @@
 //! - [`Predictor::predict`] runs the front-end exactly as training describes its inputs
 //!   (SIFT keypoints, top `query_max_keypoints` by response; upright fixed-scale SIFT
 //!   descriptors at them; LSD segments; descriptors at T samples along each segment) and
-//!   the network in evaluation mode (no dropout), on the CPU backend.
+//!   the network in evaluation mode (no dropout), on the CPU backend, or on a CUDA GPU
+//!   with [`Predictor::load_on`] (builds with the `cuda` feature; SuperPoint's network
+//!   then runs there too).
 //! - Outputs are in input order, world coordinates, pixels in COLMAP's convention (centre
 //!   of the top-left pixel at (0.5, 0.5)). Filter by reliability as the caller needs
 //!   (docs/method.md section 6: r >= 0.5 for points, r >= 0.02 for lines).
@@ -25,7 +27,7 @@ use crate::error::TrainError;
 use features::{FrontEnd, ImageFeatures};
 use geometry::Camera;
 use image::GrayImage;
-use model::{CpuBackend, Pl2Map};
+use model::{CpuBackend, Device, HostPrediction, Pl2Map};
 use std::path::Path;
 use std::sync::Arc;
 
@@ -52,8 +54,25 @@ pub struct ImagePrediction {
     pub lines: Vec<PredictedLine>,
 }
 
+/// The network on the device it runs on.
+enum Network {
+    Cpu(Pl2Map<CpuBackend>),
+    #[cfg(feature = "cuda")]
+    Cuda(Pl2Map<model::CudaBackend>),
+}
+
+impl Network {
+    fn predict(&self, points: &[f32], lines: &[f32]) -> Result<HostPrediction, TrainError> {
+        Ok(match self {
+            Network::Cpu(n) => n.predict(points, lines)?,
+            #[cfg(feature = "cuda")]
+            Network::Cuda(n) => n.predict(points, lines)?,
+        })
+    }
+}
+
 pub struct Predictor {
-    network: Pl2Map<CpuBackend>,
+    network: Network,
     config: TrainConfig,
     front_end: Arc<dyn FrontEnd>,
     /// Added to every predicted coordinate (the training's `scene_centre`).
@@ -62,9 +81,22 @@ pub struct Predictor {
 
 impl Predictor {
     pub fn load(checkpoint: &Path) -> Result<Self, TrainError> {
+        Self::load_on(checkpoint, Device::Cpu)
+    }
+
+    /// [`Predictor::load`] with the network on `device` (whatever device trained it:
+    /// a checkpoint holds plain f32 weights). SuperPoint runs there too; SIFT and LSD on the CPU.
+    pub fn load_on(checkpoint: &Path, device: Device) -> Result<Self, TrainError> {
+        device.check_built()?;
         let ck = CheckpointFile::read(checkpoint)?;
-        let network = ck.model::<CpuBackend>(&Default::default())?;
-        let mut p = Self::from_parts(network, ck.header.config)?;
+        let network = match device {
+            Device::Cpu => Network::Cpu(ck.model::<CpuBackend>(&Default::default())?),
+            #[cfg(feature = "cuda")]
+            Device::Cuda(i) => Network::Cuda(ck.model::<model::CudaBackend>(&Device::cuda(i))?),
+            #[cfg(not(feature = "cuda"))]
+            Device::Cuda(_) => return Err(device.not_built().into()),
+        };
+        let mut p = Self::with_network(network, ck.header.config, device)?;
         p.centre = ck.header.scene_centre;
         Ok(p)
     }
@@ -76,7 +108,15 @@ impl Predictor {
         network: Pl2Map<CpuBackend>,
         config: TrainConfig,
     ) -> Result<Self, TrainError> {
-        let front_end = query_front_end(&config)?;
+        Self::with_network(Network::Cpu(network), config, Device::Cpu)
+    }
+
+    fn with_network(
+        network: Network,
+        config: TrainConfig,
+        device: Device,
+    ) -> Result<Self, TrainError> {
+        let front_end = query_front_end_on(&config, device)?;
         Ok(Predictor {
             network,
             config,
@@ -175,6 +215,14 @@ impl Predictor {
 /// names, or `PL2MAP_SUPERPOINT_WEIGHTS` when that file is not there (another machine),
 /// and refuses a file whose sha256 is not the recorded one.
 pub fn query_front_end(config: &TrainConfig) -> Result<Arc<dyn FrontEnd>, TrainError> {
+    query_front_end_on(config, Device::Cpu)
+}
+
+/// [`query_front_end`] with SuperPoint's network on `device`.
+pub fn query_front_end_on(
+    config: &TrainConfig,
+    device: Device,
+) -> Result<Arc<dyn FrontEnd>, TrainError> {
     let mut fe = config.front_end.clone();
     fe.set_max_keypoints(config.query_max_keypoints);
     if let Some(w) = &fe.superpoint.weights
@@ -184,7 +232,7 @@ pub fn query_front_end(config: &TrainConfig) -> Result<Arc<dyn FrontEnd>, TrainE
     {
         fe.superpoint.weights = Some(env.into());
     }
-    Ok(superpoint::front_end(&fe)?)
+    Ok(superpoint::front_end_on(&fe, device.gpu())?)
 }
 
 #[cfg(test)]

@@ -16,6 +16,7 @@ use image::GrayImage;
 use rand::Rng;
 use serde::{Deserialize, Serialize};
 use shards::{FrameRecord, ImageFormat};
+use std::sync::{Arc, RwLock};
 
 /// Per-sample limits (the rest is subsampled, seeded).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -111,12 +112,19 @@ type FrameDescriptors = (Vec<f32>, Vec<f32>);
 /// fixed size, so a subset's descriptors equal the rows of the whole set's (the
 /// test `cached_descriptors_are_the_described_ones` holds that). Filled up to a byte
 /// budget, up front by [`DescriptorCache::prefill`] or as frames come; frames past it
-/// are described each time (same values, more time).
+/// are described each time (same values, more time). Shared by the sample workers:
+/// readers take a frame's rows under a read lock, a described frame goes in under a
+/// write lock (describing happens outside any lock).
 #[derive(Debug, Default)]
 pub struct DescriptorCache {
-    frames: std::collections::HashMap<u64, FrameDescriptors>,
-    bytes: usize,
+    inner: RwLock<CacheInner>,
     budget_bytes: usize,
+}
+
+#[derive(Debug, Default)]
+struct CacheInner {
+    frames: std::collections::HashMap<u64, Arc<FrameDescriptors>>,
+    bytes: usize,
 }
 
 impl DescriptorCache {
@@ -127,26 +135,36 @@ impl DescriptorCache {
         }
     }
 
+    /// The map; a worker that panicked while holding the lock left it consistent (every
+    /// change is one insert), so a poisoned lock is used as it is.
+    fn read(&self) -> std::sync::RwLockReadGuard<'_, CacheInner> {
+        self.inner.read().unwrap_or_else(|p| p.into_inner())
+    }
+
+    fn write(&self) -> std::sync::RwLockWriteGuard<'_, CacheInner> {
+        self.inner.write().unwrap_or_else(|p| p.into_inner())
+    }
+
     pub fn len(&self) -> usize {
-        self.frames.len()
+        self.read().frames.len()
     }
 
     pub fn is_empty(&self) -> bool {
-        self.frames.is_empty()
+        self.read().frames.is_empty()
     }
 
     /// Describes the frames of `paths` (in file order, on the rayon pool, a few frames at a
     /// time) until the budget is full, so the first epoch does not wait for them one by
-    /// one on the reader thread. What is cached never changes a sample (cached rows are
+    /// one on the sample workers. What is cached never changes a sample (cached rows are
     /// the described ones), so this changes the speed of a run, not its results.
     pub fn prefill(
-        &mut self,
+        &self,
         paths: &[std::path::PathBuf],
         fe: &dyn FrontEnd,
         bar: &indicatif::ProgressBar,
     ) -> Result<(), TrainError> {
         let chunk = 2 * rayon::current_num_threads().max(1);
-        let mut planned = self.bytes;
+        let mut planned = self.read().bytes;
         let mut batch = Vec::with_capacity(chunk);
         let reader = shards::ShardReader::open(paths)?;
         bar.set_length(
@@ -176,7 +194,7 @@ impl DescriptorCache {
     }
 
     fn describe_batch(
-        &mut self,
+        &self,
         frames: Vec<FrameRecord>,
         fe: &dyn FrontEnd,
         bar: &indicatif::ProgressBar,
@@ -201,39 +219,48 @@ impl DescriptorCache {
         Ok(())
     }
 
-    fn insert(&mut self, frame_id: u64, p: Vec<f32>, l: Vec<f32>) {
-        if !self.frames.contains_key(&frame_id) {
-            self.bytes += 4 * (p.len() + l.len());
-            self.frames.insert(frame_id, (p, l));
+    /// Adds a frame if the budget has room for it; returns what the cache holds for it.
+    fn insert(&self, frame_id: u64, p: Vec<f32>, l: Vec<f32>) -> Option<Arc<FrameDescriptors>> {
+        let mut inner = self.write();
+        if let Some(d) = inner.frames.get(&frame_id) {
+            return Some(Arc::clone(d));
         }
+        let size = 4 * (p.len() + l.len());
+        if inner.bytes + size > self.budget_bytes {
+            return None;
+        }
+        inner.bytes += size;
+        let d = Arc::new((p, l));
+        inner.frames.insert(frame_id, Arc::clone(&d));
+        Some(d)
     }
 
     /// Whether the frame's descriptors are cached.
     pub fn contains(&self, frame_id: u64) -> bool {
-        self.frames.contains_key(&frame_id)
+        self.read().frames.contains_key(&frame_id)
     }
 
     /// (point rows, line rows) of `frame`'s keypoints and segments, described once
     /// (from `image`, which only an uncached frame needs).
     fn get(
-        &mut self,
+        &self,
         frame: &FrameRecord,
         image: Option<&GrayImage>,
         fe: &dyn FrontEnd,
-    ) -> Result<Option<&FrameDescriptors>, TrainError> {
-        if !self.frames.contains_key(&frame.frame_id) {
-            let Some(image) = image else {
-                return Ok(None);
-            };
-            // Sized before describing: a frame past the budget costs nothing extra.
-            let size = 4 * fe.dim() * rows(frame, fe);
-            if self.bytes + size > self.budget_bytes {
-                return Ok(None);
-            }
-            let (p, l) = describe_on(image, frame, fe)?;
-            self.insert(frame.frame_id, p, l);
+    ) -> Result<Option<Arc<FrameDescriptors>>, TrainError> {
+        if let Some(d) = self.read().frames.get(&frame.frame_id) {
+            return Ok(Some(Arc::clone(d)));
         }
-        Ok(self.frames.get(&frame.frame_id))
+        let Some(image) = image else {
+            return Ok(None);
+        };
+        // Sized before describing: a frame past the budget costs nothing extra.
+        let size = 4 * fe.dim() * rows(frame, fe);
+        if self.read().bytes + size > self.budget_bytes {
+            return Ok(None);
+        }
+        let (p, l) = describe_on(image, frame, fe)?;
+        Ok(self.insert(frame.frame_id, p, l))
     }
 }
 
@@ -269,7 +296,7 @@ pub fn prepare_with_cache<R: Rng>(
     augment: Option<&AugmentConfig>,
     limits: &Limits,
     rng: &mut R,
-    cache: Option<&mut DescriptorCache>,
+    cache: Option<&DescriptorCache>,
 ) -> Result<Prepared, TrainError> {
     let params = match augment {
         Some(cfg) => augment::draw_params(cfg, &frame.camera, rng),
@@ -304,7 +331,7 @@ pub fn prepare_with_cache<R: Rng>(
             .all(|(&j, s)| frame.segments[j] == *s);
     // Such a sample of a cached frame needs no image at all: decoding it was most of its
     // cost (the frame was checked when it was cached).
-    let from_cache = unchanged && cache.as_ref().is_some_and(|c| c.contains(frame.frame_id));
+    let from_cache = unchanged && cache.is_some_and(|c| c.contains(frame.frame_id));
     let image = if from_cache {
         None
     } else {
@@ -317,7 +344,7 @@ pub fn prepare_with_cache<R: Rng>(
         Some(c) if unchanged => c.get(frame, image.as_ref(), front_end)?,
         _ => None,
     };
-    let (mut point_descriptors, mut line_descriptors) = match (cached, &image) {
+    let (mut point_descriptors, mut line_descriptors) = match (cached.as_deref(), &image) {
         (Some((p, l)), _) => {
             let d = front_end.dim();
             let td = front_end.samples_per_line() * d;
@@ -501,6 +528,7 @@ mod tests {
             prefetch: 2,
             seed: 1,
             chunk_cache_bytes: 0,
+            workers: 1,
         };
         let mut stream = FrameStream::start(&paths, cfg, 0, move |at, f| {
             let mut rng = seeds::rng(1, Purpose::Sample, at.position);
@@ -621,13 +649,12 @@ mod tests {
             max_keypoints: 12,
             max_lines: 3,
         };
-        let mut cache = DescriptorCache::new(64);
+        let cache = DescriptorCache::new(64);
         for seed in 0..6 {
             let mut r1 = seeds::rng(seed, Purpose::Sample, 0);
             let mut r2 = seeds::rng(seed, Purpose::Sample, 0);
             let plain = prepare(&f, &fe, None, &limits, &mut r1).unwrap();
-            let cached =
-                prepare_with_cache(&f, &fe, None, &limits, &mut r2, Some(&mut cache)).unwrap();
+            let cached = prepare_with_cache(&f, &fe, None, &limits, &mut r2, Some(&cache)).unwrap();
             assert_eq!(plain.sample, cached.sample, "seed {seed}");
         }
         assert_eq!(cache.len(), 1);
@@ -637,19 +664,19 @@ mod tests {
         let mut r1 = seeds::rng(9, Purpose::Sample, 0);
         let mut r2 = seeds::rng(9, Purpose::Sample, 0);
         let plain = prepare(&f, &fe, None, &limits, &mut r1).unwrap();
-        let cached = prepare_with_cache(&f, &fe, None, &limits, &mut r2, Some(&mut cache)).unwrap();
+        let cached = prepare_with_cache(&f, &fe, None, &limits, &mut r2, Some(&cache)).unwrap();
         assert_eq!(plain.sample, cached.sample);
         let aug = AugmentConfig {
             probability: 1.0,
             ..AugmentConfig::default()
         };
-        let mut fresh = DescriptorCache::new(64);
+        let fresh = DescriptorCache::new(64);
         let mut r = seeds::rng(1, Purpose::Sample, 0);
-        prepare_with_cache(&f, &fe, Some(&aug), &limits, &mut r, Some(&mut fresh)).unwrap();
+        prepare_with_cache(&f, &fe, Some(&aug), &limits, &mut r, Some(&fresh)).unwrap();
         assert!(fresh.is_empty());
-        let mut none = DescriptorCache::new(0);
+        let none = DescriptorCache::new(0);
         let mut r = seeds::rng(1, Purpose::Sample, 0);
-        prepare_with_cache(&f, &fe, None, &limits, &mut r, Some(&mut none)).unwrap();
+        prepare_with_cache(&f, &fe, None, &limits, &mut r, Some(&none)).unwrap();
         assert!(none.is_empty());
     }
 
@@ -664,7 +691,7 @@ mod tests {
             max_keypoints: 7,
             max_lines: 2,
         };
-        let mut cache = DescriptorCache::new(64);
+        let cache = DescriptorCache::new(64);
         cache
             .prefill(&paths, &fe, &indicatif::ProgressBar::hidden())
             .unwrap();
@@ -675,13 +702,12 @@ mod tests {
             let mut r1 = seeds::rng(3, Purpose::Sample, f.frame_id);
             let mut r2 = seeds::rng(3, Purpose::Sample, f.frame_id);
             let plain = prepare(&f, &fe, None, &limits, &mut r1).unwrap();
-            let cached =
-                prepare_with_cache(&f, &fe, None, &limits, &mut r2, Some(&mut cache)).unwrap();
+            let cached = prepare_with_cache(&f, &fe, None, &limits, &mut r2, Some(&cache)).unwrap();
             assert_eq!(plain.sample, cached.sample);
         }
         // A budget for about one frame caches a prefix of the file order, no more.
         let one = 4 * features::SIFT_DIM * rows(&frame(0, 40, 6, 0.0), &fe);
-        let mut small = DescriptorCache {
+        let small = DescriptorCache {
             budget_bytes: one + one / 2,
             ..DescriptorCache::default()
         };
@@ -689,7 +715,7 @@ mod tests {
             .prefill(&paths, &fe, &indicatif::ProgressBar::hidden())
             .unwrap();
         assert!(!small.is_empty() && small.len() < 6, "{}", small.len());
-        assert!(small.bytes <= small.budget_bytes);
+        assert!(small.read().bytes <= small.budget_bytes);
     }
 
     #[test]

@@ -9,16 +9,21 @@
 //! stream can start at any position (resume) without reading the frames before it.
 //!
 //! Position `p` of the endless stream is frame `p mod n` of epoch `p / n` (n frames per
-//! epoch). The background thread decodes frames and runs a caller-given preparation
-//! function on them (augmentation, descriptors), `prefetch` items ahead of the consumer.
+//! epoch). A background reader reads the frames and a pool of workers runs a
+//! caller-given preparation function on them (decoding, augmentation, descriptors),
+//! `prefetch` items ahead of the consumer, who gets them back in stream order.
 
 use crate::error::TrainError;
 use crate::seeds::{self, Purpose};
 use rand::Rng;
 use rand::seq::SliceRandom;
 use shards::{FrameRecord, ReaderOptions, ShardReader};
+use std::collections::BTreeMap;
+use std::panic::AssertUnwindSafe;
 use std::path::PathBuf;
-use std::sync::mpsc::{Receiver, SyncSender, sync_channel};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::{Receiver, SyncSender, channel, sync_channel};
+use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
 
 /// A frame of the stream: index of its shard in the given list, and its id.
@@ -62,13 +67,17 @@ pub fn epoch_order(
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct StreamConfig {
     pub shuffle_buffer: usize,
-    /// Prepared items kept ready ahead of the consumer.
+    /// Prepared items kept ready ahead of the consumer (besides those in the workers'
+    /// hands).
     pub prefetch: usize,
     pub seed: u64,
     /// Decompressed shard chunks the reader keeps (bytes; see
     /// `shards::ReaderOptions::cache_bytes`). Speed only: the shuffle buffer reads
     /// frames out of file order, and without it most reads decompress a whole chunk.
     pub chunk_cache_bytes: u64,
+    /// Threads running the preparation function (at least 1). The items come out in
+    /// stream order whatever the number: it changes the speed, never the items.
+    pub workers: usize,
 }
 
 /// Where the stream is: the endless position and the frame there.
@@ -82,24 +91,36 @@ pub struct StreamPosition {
 type Item<T> = Result<(StreamPosition, T), TrainError>;
 
 /// The endless, prefetched stream of prepared frames.
+///
+/// Threads: one reader walks the stream order and reads each frame from its shard; it
+/// hands (position, frame) to `workers` threads, which run the preparation function and
+/// send the result back tagged with its position; [`FrameStream::next_item`] puts the
+/// results back into stream order. The reader takes a credit before each frame and the
+/// consumer returns one with each item it hands out, so at most `prefetch + workers`
+/// frames are read and not yet consumed, however slow one preparation is.
 pub struct FrameStream<T: Send + 'static> {
-    rx: Option<Receiver<Item<T>>>,
-    handle: Option<JoinHandle<()>>,
+    results: Option<Receiver<(u64, Item<T>)>>,
+    credits: Option<SyncSender<()>>,
+    /// Results that came before the one the consumer waits for.
+    pending: BTreeMap<u64, Item<T>>,
+    next: u64,
+    stop: Arc<AtomicBool>,
+    threads: Vec<JoinHandle<()>>,
     frames_per_epoch: usize,
 }
 
 impl<T: Send + 'static> FrameStream<T> {
-    /// Opens `paths` and starts the background thread at stream position `start`.
-    /// `prepare(position, frame)` runs on that thread; its result is what [`Self::next`]
-    /// returns.
+    /// Opens `paths` and starts the reader and the workers at stream position `start`.
+    /// `prepare(position, frame)` runs on the workers; its result is what
+    /// [`Self::next_item`] returns.
     pub fn start<F>(
         paths: &[PathBuf],
         config: StreamConfig,
         start: u64,
-        mut prepare: F,
+        prepare: F,
     ) -> Result<Self, TrainError>
     where
-        F: FnMut(&StreamPosition, FrameRecord) -> Result<T, TrainError> + Send + 'static,
+        F: Fn(&StreamPosition, FrameRecord) -> Result<T, TrainError> + Send + Sync + 'static,
     {
         let options = ReaderOptions {
             cache_bytes: config.chunk_cache_bytes,
@@ -115,14 +136,73 @@ impl<T: Send + 'static> FrameStream<T> {
         if n == 0 {
             return Err(TrainError::NoFrames);
         }
-        let (tx, rx): (SyncSender<Item<T>>, _) = sync_channel(config.prefetch.max(1));
+        let workers = config.workers.max(1);
+        let in_flight = config.prefetch.max(1) + workers;
+        let (credit_tx, credit_rx) = sync_channel::<()>(in_flight);
+        for _ in 0..in_flight {
+            // The channel holds exactly `in_flight`: these sends cannot block or fail.
+            let _ = credit_tx.try_send(());
+        }
+        let (job_tx, job_rx) = channel::<(StreamPosition, FrameRecord)>();
+        let job_rx = Arc::new(Mutex::new(job_rx));
+        let (result_tx, result_rx) = channel::<(u64, Item<T>)>();
+        let stop = Arc::new(AtomicBool::new(false));
+        let spawn_err =
+            |e: std::io::Error| TrainError::Stream(format!("cannot start a thread: {e}"));
+        let mut threads = Vec::with_capacity(workers + 1);
+
+        let prepare = Arc::new(prepare);
+        for w in 0..workers {
+            let (jobs, results, stop, prepare) = (
+                Arc::clone(&job_rx),
+                result_tx.clone(),
+                Arc::clone(&stop),
+                Arc::clone(&prepare),
+            );
+            let handle = std::thread::Builder::new()
+                .name(format!("pl2map-sample-{w}"))
+                .spawn(move || {
+                    loop {
+                        // The lock is held only to take a job, not while preparing it.
+                        let job = match jobs.lock() {
+                            Ok(rx) => rx.recv(),
+                            Err(_) => return,
+                        };
+                        let Ok((at, record)) = job else { return };
+                        if stop.load(Ordering::Relaxed) {
+                            return;
+                        }
+                        // A panic in the preparation ends the stream with an error
+                        // instead of leaving the consumer waiting for this position.
+                        let prepared =
+                            std::panic::catch_unwind(AssertUnwindSafe(|| prepare(&at, record)))
+                                .unwrap_or_else(|panic| {
+                                    Err(TrainError::Stream(format!(
+                                        "preparing frame {} panicked: {}",
+                                        at.frame.frame_id,
+                                        panic_text(panic.as_ref())
+                                    )))
+                                });
+                        let item = prepared.map(|t| (at, t));
+                        if results.send((at.position, item)).is_err() {
+                            return;
+                        }
+                    }
+                })
+                .map_err(spawn_err)?;
+            threads.push(handle);
+        }
+
+        let reader_stop = Arc::clone(&stop);
         let handle = std::thread::Builder::new()
             .name("pl2map-frames".into())
             .spawn(move || {
                 let mut epoch = u64::MAX;
                 let mut order = Vec::new();
                 let mut position = start;
-                loop {
+                // Blocks while `in_flight` frames are out; fails once the stream is
+                // dropped (and any credits left are ignored after `stop`).
+                while credit_rx.recv().is_ok() && !reader_stop.load(Ordering::Relaxed) {
                     let e = position / n as u64;
                     if e != epoch {
                         epoch = e;
@@ -134,24 +214,30 @@ impl<T: Send + 'static> FrameStream<T> {
                         epoch,
                         frame,
                     };
-                    let item = reader
-                        .read_frame(frame.frame_id)
-                        .map_err(TrainError::from)
-                        .and_then(|record| prepare(&at, record))
-                        .map(|t| (at, t));
-                    let failed = item.is_err();
-                    // Blocks while the consumer is `prefetch` items behind; an error
-                    // means the stream was dropped.
-                    if tx.send(item).is_err() || failed {
-                        return;
+                    match reader.read_frame(frame.frame_id) {
+                        Ok(record) => {
+                            if job_tx.send((at, record)).is_err() {
+                                return;
+                            }
+                        }
+                        Err(e) => {
+                            // Ends the stream at this position.
+                            let _ = result_tx.send((position, Err(e.into())));
+                            return;
+                        }
                     }
                     position += 1;
                 }
             })
-            .map_err(|e| TrainError::Stream(format!("cannot start the reader thread: {e}")))?;
+            .map_err(spawn_err)?;
+        threads.push(handle);
         Ok(FrameStream {
-            rx: Some(rx),
-            handle: Some(handle),
+            results: Some(result_rx),
+            credits: Some(credit_tx),
+            pending: BTreeMap::new(),
+            next: start,
+            stop,
+            threads,
             frames_per_epoch: n,
         })
     }
@@ -160,35 +246,65 @@ impl<T: Send + 'static> FrameStream<T> {
         self.frames_per_epoch
     }
 
-    /// The next prepared frame. An error (a frame that does not decode, a failed
-    /// preparation) ends the stream.
+    /// The next prepared frame, in stream order. An error (a frame that does not read
+    /// or decode, a failed preparation) ends the stream.
     pub fn next_item(&mut self) -> Result<(StreamPosition, T), TrainError> {
-        let rx = self
-            .rx
-            .as_ref()
-            .ok_or_else(|| TrainError::Stream("the stream has ended".into()))?;
-        match rx.recv() {
-            Ok(Ok(item)) => Ok(item),
-            Ok(Err(e)) => {
-                self.rx = None;
+        let ended = || TrainError::Stream("the stream has ended".into());
+        let item = loop {
+            if let Some(item) = self.pending.remove(&self.next) {
+                break item;
+            }
+            let rx = self.results.as_ref().ok_or_else(ended)?;
+            match rx.recv() {
+                Ok((position, item)) => {
+                    self.pending.insert(position, item);
+                }
+                Err(_) => {
+                    self.results = None;
+                    return Err(TrainError::Stream("the sample threads exited".into()));
+                }
+            }
+        };
+        match item {
+            Ok(item) => {
+                self.next += 1;
+                if let Some(credits) = &self.credits {
+                    // The reader may be gone (it stopped at an error further on): then
+                    // nothing waits for the credit.
+                    let _ = credits.try_send(());
+                }
+                Ok(item)
+            }
+            Err(e) => {
+                self.shut_down();
                 Err(e)
             }
-            Err(_) => {
-                self.rx = None;
-                Err(TrainError::Stream("the reader thread exited".into()))
-            }
+        }
+    }
+
+    /// Stops the threads: the reader at its next credit, the workers at their next job.
+    fn shut_down(&mut self) {
+        self.stop.store(true, Ordering::Relaxed);
+        self.credits = None;
+        self.results = None;
+        self.pending.clear();
+        for h in self.threads.drain(..) {
+            let _ = h.join();
         }
     }
 }
 
+fn panic_text(panic: &(dyn std::any::Any + Send)) -> String {
+    panic
+        .downcast_ref::<&str>()
+        .map(|s| s.to_string())
+        .or_else(|| panic.downcast_ref::<String>().cloned())
+        .unwrap_or_else(|| "(no message)".into())
+}
+
 impl<T: Send + 'static> Drop for FrameStream<T> {
     fn drop(&mut self) {
-        // Dropping the receiver makes the thread's next send fail, so it exits after at
-        // most one more preparation.
-        self.rx = None;
-        if let Some(h) = self.handle.take() {
-            let _ = h.join();
-        }
+        self.shut_down();
     }
 }
 
@@ -266,6 +382,7 @@ mod tests {
             prefetch: 2,
             seed: 5,
             chunk_cache_bytes: 0,
+            workers: 1,
         };
         let ids = |start: u64, count: usize| -> Vec<(u64, u64)> {
             let mut s = FrameStream::start(&paths, cfg, start, |_, f| Ok(f.frame_id)).unwrap();
@@ -288,6 +405,78 @@ mod tests {
         assert_eq!(ids(17, 13), full[17..]);
     }
 
+    fn config(workers: usize) -> StreamConfig {
+        StreamConfig {
+            shuffle_buffer: 3,
+            prefetch: 2,
+            seed: 5,
+            chunk_cache_bytes: 0,
+            workers,
+        }
+    }
+
+    /// Workers that finish out of order (each sleeps a position-dependent time) still
+    /// give the items in stream order, equal to one worker's.
+    #[test]
+    fn any_number_of_workers_gives_the_same_items_in_order() {
+        let dir = tempfile::tempdir().unwrap();
+        let paths = write_synthetic_shards(dir.path(), 3, 4, 0.0);
+        let items = |workers: usize, start: u64| -> Vec<(u64, u64, usize)> {
+            let mut s = FrameStream::start(&paths, config(workers), start, |at, f| {
+                // Later positions often finish first.
+                let ms = [3, 0, 2, 0, 1][(at.position % 5) as usize];
+                std::thread::sleep(std::time::Duration::from_millis(ms));
+                Ok((f.frame_id, f.keypoints.len()))
+            })
+            .unwrap();
+            (0..30)
+                .map(|_| {
+                    let (at, (id, n)) = s.next_item().unwrap();
+                    (at.position, id, n)
+                })
+                .collect()
+        };
+        let one = items(1, 0);
+        assert_eq!(
+            one.iter().map(|x| x.0).collect::<Vec<_>>(),
+            (0..30).collect::<Vec<u64>>()
+        );
+        assert_eq!(items(2, 0), one);
+        assert_eq!(items(4, 0), one);
+        assert_eq!(items(3, 7), items(1, 7));
+    }
+
+    /// A failed or panicking preparation ends the stream with its error at its
+    /// position; the items before it come out first.
+    #[test]
+    fn a_failed_preparation_ends_the_stream_at_its_position() {
+        let dir = tempfile::tempdir().unwrap();
+        let paths = write_synthetic_shards(dir.path(), 2, 4, 0.0);
+        for panics in [false, true] {
+            let mut s = FrameStream::start(&paths, config(3), 0, move |at, f| {
+                if at.position == 4 {
+                    if panics {
+                        panic!("bad frame {}", f.frame_id);
+                    }
+                    return Err(TrainError::Stream("refused".into()));
+                }
+                Ok(at.position)
+            })
+            .unwrap();
+            for p in 0..4 {
+                assert_eq!(s.next_item().unwrap().1, p);
+            }
+            let e = s.next_item().unwrap_err().to_string();
+            let expected = if panics {
+                "panicked: bad frame"
+            } else {
+                "refused"
+            };
+            assert!(e.contains(expected), "{e}");
+            assert!(s.next_item().is_err());
+        }
+    }
+
     #[test]
     fn empty_input_is_an_error() {
         let r = FrameStream::<u64>::start(
@@ -297,6 +486,7 @@ mod tests {
                 prefetch: 1,
                 seed: 0,
                 chunk_cache_bytes: 0,
+                workers: 1,
             },
             0,
             |_, f| Ok(f.frame_id),

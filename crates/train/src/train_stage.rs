@@ -112,6 +112,8 @@ pub fn run(
     dir: &Path,
     options: &TrainStageOptions,
 ) -> Result<Done<TrainOutput>, TrainError> {
+    // Before anything is read or written.
+    config.device.check_built()?;
     let (paths, shard_inputs) = split_shards(shard_dir, Split::Train)?;
     let mut config = config.clone();
     if let Some(n) = options.iterations {
@@ -149,7 +151,7 @@ pub fn run(
     if let Some(sha256) = superpoint::weights_sha256(&config.front_end)? {
         inputs.insert("superpoint_weights".into(), sha256);
     }
-    let stage = Stage::new(STAGE, dir, &config, inputs)?;
+    let stage = Stage::new(STAGE, dir, &config.for_record(), inputs)?;
     match stage.check()? {
         RecordCheck::UpToDate => {
             return Ok(Done {

@@ -24,8 +24,9 @@ use crate::seeds::{self, Purpose};
 use crate::stream::{FrameStream, StreamConfig};
 use indicatif::ProgressBar;
 use model::burn::tensor::backend::AutodiffBackend;
-use model::{LossValues, Pl2MapBackend, StepOptions, TrainState};
+use model::{Device, LossValues, Pl2MapBackend, StepOptions, TrainState};
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 use std::time::Instant;
 
 pub const CONFIG_FILE: &str = "config.toml";
@@ -77,13 +78,25 @@ pub struct TrainSummary {
     pub plot: Option<PathBuf>,
 }
 
-/// Trains on the CPU backend.
+/// Trains on the configuration's device (`device`: the CPU backend, or CUDA in builds
+/// with the `cuda` feature; a CUDA device in a build without it is refused, saying how to
+/// build one).
 pub fn train(
     config: TrainConfig,
     shards: &[PathBuf],
     options: &RunOptions,
 ) -> Result<TrainSummary, TrainError> {
-    train_on::<model::CpuAutodiffBackend>(config, shards, options, &Default::default())
+    match config.device {
+        Device::Cpu => {
+            train_on::<model::CpuAutodiffBackend>(config, shards, options, &Default::default())
+        }
+        #[cfg(feature = "cuda")]
+        Device::Cuda(i) => {
+            train_on::<model::CudaAutodiffBackend>(config, shards, options, &Device::cuda(i))
+        }
+        #[cfg(not(feature = "cuda"))]
+        Device::Cuda(_) => Err(config.device.not_built().into()),
+    }
 }
 
 fn mean_losses(window: &[LossValues]) -> MeanLosses {
@@ -114,7 +127,7 @@ fn progress_bar(total: u64, start: u64, show: bool) -> ProgressBar {
 }
 
 /// Trains on any autodiff backend (see [`train`]).
-pub fn train_on<B: AutodiffBackend + Pl2MapBackend>(
+pub fn train_on<B: AutodiffBackend<InnerBackend: Pl2MapBackend> + Pl2MapBackend>(
     config: TrainConfig,
     shards: &[PathBuf],
     options: &RunOptions,
@@ -132,6 +145,10 @@ pub fn train_on<B: AutodiffBackend + Pl2MapBackend>(
         if let Some(n) = options.iterations {
             cfg.iterations = n;
         }
+        // Where and with how many workers this process runs is the caller's choice, not
+        // the checkpoint's: a run started on a GPU may finish on the CPU.
+        cfg.device = config.device;
+        cfg.workers = config.workers;
         let model = ck.model::<B>(device)?;
         let optimizer = ck
             .optimizer::<B>(device)?
@@ -182,7 +199,8 @@ pub fn train_on<B: AutodiffBackend + Pl2MapBackend>(
     // The front-end describes every training sample. Its configuration as built (for
     // SuperPoint: with the weights file's sha256) is what the checkpoints record, so the
     // predictor and a resumed run use the same weights or refuse to start.
-    let front_end = superpoint::front_end(&config.front_end)?;
+    // SuperPoint runs on the training device (SIFT and LSD on the CPU).
+    let front_end = superpoint::front_end_on(&config.front_end, config.device.gpu())?;
     let mut config = config;
     config.front_end = front_end.config().clone();
     write_atomic(&out.join(CONFIG_FILE), config.to_toml().as_bytes())?;
@@ -195,6 +213,7 @@ pub fn train_on<B: AutodiffBackend + Pl2MapBackend>(
         prefetch: config.prefetch.max(2 * config.batch_frames),
         seed: config.seed,
         chunk_cache_bytes: (config.chunk_cache_mib as u64) << 20,
+        workers: config.sample_workers(),
     };
     let (fe, aug, limits, seed) = (
         front_end,
@@ -203,7 +222,7 @@ pub fn train_on<B: AutodiffBackend + Pl2MapBackend>(
         config.seed,
     );
     let batch = config.batch_frames as u64;
-    let mut cache = DescriptorCache::new(config.descriptor_cache_mib);
+    let cache = Arc::new(DescriptorCache::new(config.descriptor_cache_mib));
     // Unaugmented samples take their descriptors from the cache: fill it up front on
     // every core instead of one frame at a time on the reader thread during the first
     // epoch (about 100 s of a 15-minute CPU run on the synthetic scene). Results do not
@@ -214,6 +233,8 @@ pub fn train_on<B: AutodiffBackend + Pl2MapBackend>(
         cache.prefill(shards, fe.as_ref(), &bar)?;
         bar.finish_and_clear();
     }
+    // Runs on the sample workers: a sample's randomness is its stream position's, so
+    // the samples do not depend on which worker prepares them or how many there are.
     let mut stream = FrameStream::start(shards, stream_cfg, start * batch, move |at, frame| {
         let mut rng = seeds::rng(seed, Purpose::Sample, at.position);
         let mut p = prepare_with_cache(
@@ -222,7 +243,7 @@ pub fn train_on<B: AutodiffBackend + Pl2MapBackend>(
             Some(&aug),
             &limits,
             &mut rng,
-            Some(&mut cache),
+            Some(&cache),
         )?;
         recentre(&mut p.sample, &centre);
         Ok(p)
@@ -237,7 +258,8 @@ pub fn train_on<B: AutodiffBackend + Pl2MapBackend>(
     let mut done = start;
     let header = |iteration: u64, config: &TrainConfig| CheckpointHeader {
         tool_version: env!("CARGO_PKG_VERSION").to_string(),
-        config: config.clone(),
+        // Without the speed-only settings: the same weights make the same file.
+        config: config.for_record(),
         iteration,
         has_optimizer: true,
         scene_centre: centre,
@@ -594,6 +616,59 @@ mod tests {
         .unwrap_err();
         assert!(e.to_string().contains("network"), "{e}");
         a
+    }
+
+    /// With image augmentation at the reference's rate, 1, 2 and 3 sample workers give
+    /// byte-identical models and checkpoints (Adam's state included) and the same
+    /// losses at every step.
+    #[test]
+    fn any_number_of_workers_trains_the_same_weights() {
+        let dir = tempfile::tempdir().unwrap();
+        let shards = write_synthetic_shards(dir.path(), 2, 4, 0.0);
+        let mut cfg = tiny_config();
+        cfg.batch_frames = 2;
+        cfg.augment.probability = 0.5;
+        let run = |workers: usize| -> (Vec<u8>, Vec<u8>, Vec<String>) {
+            let out = dir.path().join(format!("w{workers}"));
+            let mut c = cfg.clone();
+            c.workers = workers;
+            train(c, &shards, &opts(&out)).unwrap();
+            let read = |f: &str| std::fs::read(out.join(f)).unwrap();
+            // Every column but the two timings.
+            let rows = std::fs::read_to_string(out.join("metrics.csv"))
+                .unwrap()
+                .lines()
+                .map(|l| l.rsplitn(3, ',').nth(2).unwrap().to_string())
+                .collect();
+            (read(MODEL_FILE), read(CHECKPOINT_FILE), rows)
+        };
+        let one = run(1);
+        assert!(one.2.len() == 10, "{:?}", one.2);
+        assert!(run(2) == one, "2 workers differ from 1");
+        assert!(run(3) == one, "3 workers differ from 1");
+        // The record does not count the workers: more of them is not a new run.
+        let mut more = cfg.clone();
+        more.workers = 4;
+        assert_eq!(more.for_record(), cfg.for_record());
+        assert!(!more.to_toml().contains("device"));
+    }
+
+    #[test]
+    fn cuda_in_a_cpu_build_is_refused_before_anything_is_written() {
+        if model::device::CUDA_BUILT {
+            return;
+        }
+        let dir = tempfile::tempdir().unwrap();
+        let shards = write_synthetic_shards(dir.path(), 1, 2, 0.0);
+        let mut cfg = tiny_config();
+        cfg.device = Device::Cuda(1);
+        let out = dir.path().join("o");
+        let e = train(cfg.clone(), &shards, &opts(&out))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("cuda:1") && e.contains("--features cuda"), "{e}");
+        assert!(!out.exists());
+        assert!(cfg.validate().is_err());
     }
 
     #[test]

@@ -49,7 +49,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if queries.is_empty() {
         bail!("no queries");
     }
-    let mut localiser = NetworkLocaliser::load(&args.checkpoint)?;
+    let mut localiser = NetworkLocaliser::load_on(&args.checkpoint, args.config.device)?;
     let b = bench::run(
         &mut localiser,
         &queries,

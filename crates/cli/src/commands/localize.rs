@@ -65,7 +65,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if queries.is_empty() {
         bail!("no queries to localise");
     }
-    let mut localiser = NetworkLocaliser::load(&args.checkpoint)?;
+    let mut localiser = NetworkLocaliser::load_on(&args.checkpoint, args.config.device)?;
     let opts = LocalizeOptions {
         config: args.config.resolve(),
         lines: args.lines == OnOff::On,

@@ -31,6 +31,10 @@ pub struct Args {
     /// in <work>/without-refine/) and print both scores in one table.
     #[arg(long)]
     pub compare_refine: bool,
+    /// Where the network trains and scores (`cpu`, `cuda`, `cuda:N`), instead of the
+    /// file's `[train] device` / `[score] device`.
+    #[arg(long)]
+    pub device: Option<train::Device>,
 }
 
 pub fn run(args: Args, quiet: bool) -> anyhow::Result<()> {
@@ -39,7 +43,10 @@ pub fn run(args: Args, quiet: bool) -> anyhow::Result<()> {
         // the shards, and the shard folder's merge) take turns instead of refusing.
         stage::set_wait(true);
     }
-    let p = pipeline::Pipeline::load_unit(&args.pipeline, args.work, args.scene.as_deref())?;
+    let mut p = pipeline::Pipeline::load_unit(&args.pipeline, args.work, args.scene.as_deref())?;
+    if let Some(device) = args.device {
+        p.set_device(device)?;
+    }
     let options = pipeline::RunOptions {
         until: args.until,
         progress: !quiet,

@@ -1,0 +1,90 @@
+//! The Adam update alone: burn's Adam against this crate's fused one (`model::adam`) on
+//! the reference network's parameters, the gradients of one synthetic image, in one run.
+//!
+//! cargo run --release -p model --example adam_bench -- [--iters N] [--dims 128,256]
+//!
+//! Both run in the training threads' pool (`model::denormals::flushing_pool`, all cores).
+//! The gradients are computed before each timed update, outside the timer.
+
+use model::bench::synthetic_sample;
+use model::burn::module::Module;
+use model::burn::optim::{GradientsParams, Optimizer};
+use model::dropout::Dropout;
+use model::step::{adam_config, new_optimizer};
+use model::{CpuAutodiffBackend as AD, LossConfig, ModelConfig, Pl2Map, Sample, compute_loss};
+use std::time::Instant;
+
+fn gradients(net: &Pl2Map<AD>, sample: &Sample) -> GradientsParams {
+    let t = sample
+        .to_tensors::<AD>(&net.config, &Default::default())
+        .expect("a valid synthetic sample");
+    let p = net.forward_batch(vec![t.input], &mut Dropout::seeded(0.0, 0));
+    let terms = compute_loss(&p[0], &t.targets, &LossConfig::indoor(), 0.9);
+    GradientsParams::from_grads(terms.total.backward(), net)
+}
+
+/// Median seconds of `iters` updates by `optimizer` (after one untimed update, which
+/// creates the moments).
+fn time_updates<O: Optimizer<Pl2Map<AD>, AD>>(
+    mut optimizer: O,
+    net: &Pl2Map<AD>,
+    sample: &Sample,
+    iters: usize,
+) -> f64 {
+    let mut net = net.clone();
+    let mut times = Vec::with_capacity(iters);
+    for i in 0..=iters {
+        let grads = gradients(&net, sample);
+        let start = Instant::now();
+        net = optimizer.step(1e-4, net, grads);
+        if i > 0 {
+            times.push(start.elapsed().as_secs_f64());
+        }
+    }
+    times.sort_by(f64::total_cmp);
+    times[times.len() / 2]
+}
+
+fn main() {
+    let mut iters = 20;
+    let mut dims = vec![128, 256];
+    let mut args = std::env::args().skip(1);
+    while let Some(arg) = args.next() {
+        let value = args.next().unwrap_or_default();
+        match arg.as_str() {
+            "--iters" => iters = value.parse().unwrap_or(iters),
+            "--dims" => dims = value.split(',').filter_map(|d| d.parse().ok()).collect(),
+            other => {
+                eprintln!("unknown argument {other} (--iters N, --dims 128,256)");
+                std::process::exit(2);
+            }
+        }
+    }
+    let pool = model::denormals::flushing_pool().expect("a thread pool");
+    println!(
+        "Adam update, median of {iters} ({} threads)\n",
+        pool.current_num_threads()
+    );
+    println!("| D | parameters | burn's Adam ms | fused ms | fused / burn |");
+    println!("|---:|---:|---:|---:|---:|");
+    for d in dims {
+        let cfg = ModelConfig::new(d);
+        let net = cfg
+            .init::<AD>(1, &Default::default())
+            .expect("a valid network");
+        let sample = synthetic_sample(&cfg, 1024, 128, 7);
+        let (burn, fused) = pool.install(|| {
+            (
+                time_updates(adam_config().init::<AD, Pl2Map<AD>>(), &net, &sample, iters),
+                time_updates(new_optimizer::<AD>(), &net, &sample, iters),
+            )
+        });
+        println!(
+            "| {d} | {} | {:.2} | {:.2} | {:.2}x |",
+            net.num_params(),
+            burn * 1e3,
+            fused * 1e3,
+            fused / burn
+        );
+    }
+}

@@ -1,0 +1,211 @@
+//! Adam in one pass over each parameter, on backends whose tensors live in host memory.
+//!
+//! Why: burn's Adam updates a parameter with about a dozen tensor operations (two for
+//! each moment, the square, the bias corrections, the square root, the division, the
+//! learning rate, the subtraction), each a pass over the parameter and a fresh buffer.
+//! On the CPU that is memory traffic, not arithmetic. Here each element is read once
+//! and its parameter and both moments are written once, in parallel chunks.
+//!
+//! The arithmetic is burn's, operation for operation in f32 (model crate test
+//! `fused_adam_equals_burns_adam_bit_for_bit`), so a run gives the same weights and the
+//! same optimiser state as with burn's Adam; the state is burn's own record type, so
+//! checkpoints are unchanged. On other backends (CUDA) the step is burn's Adam itself.
+
+use crate::backend::Pl2MapBackend;
+use burn::optim::{
+    Adam, AdamConfig, AdamState, AdaptiveMomentumState, LearningRate, SimpleOptimizer,
+};
+use burn::tensor::{DType, Tensor, TensorData};
+use rayon::prelude::*;
+
+/// Elements per parallel task: small parameters (biases, norms) stay on one thread.
+const CHUNK: usize = 1 << 14;
+
+/// Adam with burn's arithmetic and record, fused on host-memory backends.
+#[derive(Clone)]
+pub struct FusedAdam {
+    beta_1: f32,
+    beta_2: f32,
+    epsilon: f32,
+    /// burn's Adam with the same settings: the step on other backends.
+    fallback: Adam,
+}
+
+impl FusedAdam {
+    pub fn new(beta_1: f32, beta_2: f32, epsilon: f32) -> Self {
+        FusedAdam {
+            beta_1,
+            beta_2,
+            epsilon,
+            fallback: AdamConfig::new()
+                .with_beta_1(beta_1)
+                .with_beta_2(beta_2)
+                .with_epsilon(epsilon)
+                .build(),
+        }
+    }
+}
+
+impl std::fmt::Debug for FusedAdam {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("FusedAdam")
+            .field("beta_1", &self.beta_1)
+            .field("beta_2", &self.beta_2)
+            .field("epsilon", &self.epsilon)
+            .finish()
+    }
+}
+
+/// The values of an f32 tensor (callers check the dtype: the conversion is then a move
+/// on host-memory backends and cannot fail).
+fn host_f32<B: Pl2MapBackend, const D: usize>(t: Tensor<B, D>) -> Vec<f32> {
+    t.into_data()
+        .convert::<f32>()
+        .into_vec::<f32>()
+        .unwrap_or_default()
+}
+
+impl<B: Pl2MapBackend> SimpleOptimizer<B> for FusedAdam {
+    type State<const D: usize> = AdamState<B, D>;
+
+    fn step<const D: usize>(
+        &self,
+        lr: LearningRate,
+        tensor: Tensor<B, D>,
+        grad: Tensor<B, D>,
+        state: Option<Self::State<D>>,
+    ) -> (Tensor<B, D>, Option<Self::State<D>>) {
+        let f32_state = state.as_ref().is_none_or(|s| {
+            let s = &s.momentum;
+            s.moment_1.dtype() == DType::F32
+                && s.moment_2.dtype() == DType::F32
+                && s.max_moment_2.is_none()
+        });
+        if !B::HOST_MEMORY
+            || tensor.dtype() != DType::F32
+            || grad.dtype() != DType::F32
+            || !f32_state
+        {
+            return self.fallback.step(lr, tensor, grad, state);
+        }
+        let shape = tensor.shape();
+        let device = tensor.device();
+        let mut p = host_f32(tensor);
+        let g = host_f32(grad);
+        let (b1, b2) = (self.beta_1, self.beta_2);
+        let (f1, f2) = (1.0 - b1, 1.0 - b2);
+        let (time, mut m, mut v, first) = match state {
+            Some(s) => {
+                let s = s.momentum;
+                (
+                    s.time + 1,
+                    host_f32(s.moment_1),
+                    host_f32(s.moment_2),
+                    false,
+                )
+            }
+            None => (1, vec![0.0; g.len()], vec![0.0; g.len()], true),
+        };
+        // The constants exactly as burn computes them (f32).
+        let t = time as i32;
+        let bias_correction2_sqrt = (1.0 - b2.powi(t)).sqrt();
+        let combined_factor = bias_correction2_sqrt / (1.0 - b1.powi(t));
+        let eps = self.epsilon * bias_correction2_sqrt;
+        let lr = lr as f32;
+        p.par_chunks_mut(CHUNK)
+            .zip(g.par_chunks(CHUNK))
+            .zip(m.par_chunks_mut(CHUNK))
+            .zip(v.par_chunks_mut(CHUNK))
+            .for_each(|(((p, g), m), v)| {
+                for i in 0..p.len() {
+                    let gi = g[i];
+                    // The first step starts the moments from the gradient (not 0 * beta +
+                    // ...: that would turn -0 into +0).
+                    let (mi, vi) = if first {
+                        (gi * f1, (gi * gi) * f2)
+                    } else {
+                        (m[i] * b1 + gi * f1, v[i] * b2 + (gi * gi) * f2)
+                    };
+                    m[i] = mi;
+                    v[i] = vi;
+                    let delta = (mi * combined_factor) / (vi.sqrt() + eps);
+                    p[i] -= delta * lr;
+                }
+            });
+        let tensor =
+            |x: Vec<f32>| Tensor::<B, D>::from_data(TensorData::new(x, shape.clone()), &device);
+        let state = AdamState::new(AdaptiveMomentumState {
+            time,
+            moment_1: tensor(m),
+            moment_2: tensor(v),
+            max_moment_2: None,
+        });
+        (tensor(p), Some(state))
+    }
+
+    fn to_device<const D: usize>(state: Self::State<D>, device: &B::Device) -> Self::State<D> {
+        <Adam as SimpleOptimizer<B>>::to_device(state, device)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::dropout::Dropout;
+    use crate::step::{adam_config, new_optimizer};
+    use crate::testutil::{AD, tiny_config, tiny_sample};
+    use crate::{LossConfig, Pl2Map, Sample, compute_loss};
+    use burn::module::{Module, ModuleVisitor, Param};
+    use burn::optim::{GradientsParams, Optimizer};
+    use burn::tensor::Tensor;
+    use burn::tensor::backend::Backend;
+
+    fn parameters<B: Backend>(net: &Pl2Map<B>) -> Vec<u32> {
+        struct Collect(Vec<u32>);
+        impl<B: Backend> ModuleVisitor<B> for Collect {
+            fn visit_float<const D: usize>(&mut self, param: &Param<Tensor<B, D>>) {
+                let data = param.val().into_data().convert::<f32>();
+                self.0.extend(data.iter::<f32>().map(f32::to_bits));
+            }
+        }
+        let mut c = Collect(Vec::new());
+        net.visit(&mut c);
+        c.0
+    }
+
+    fn gradients(net: &Pl2Map<AD>, sample: &Sample) -> GradientsParams {
+        let t = sample
+            .to_tensors::<AD>(&net.config, &Default::default())
+            .unwrap();
+        let p = net.forward_batch(vec![t.input], &mut Dropout::seeded(0.0, 0));
+        let terms = compute_loss(&p[0], &t.targets, &LossConfig::indoor(), 0.9);
+        GradientsParams::from_grads(terms.total.backward(), net)
+    }
+
+    /// Five steps of the fused Adam and of burn's Adam, on the gradients of different
+    /// samples, give the same parameters bit for bit after every step (and so the same
+    /// moments: a moment that differed would move the next step's parameters).
+    #[test]
+    fn fused_adam_equals_burns_adam_bit_for_bit() {
+        let cfg = tiny_config();
+        let net = cfg.init::<AD>(3, &Default::default()).unwrap();
+        let mut burns = adam_config().init::<AD, Pl2Map<AD>>();
+        let mut fused = new_optimizer::<AD>();
+        let (mut a, mut b) = (net.clone(), net);
+        for i in 0..5 {
+            let sample = tiny_sample(&cfg, 8 + i, 3);
+            let lr = 3e-3 / (i + 1) as f64;
+            let ga = gradients(&a, &sample);
+            let gb = gradients(&b, &sample);
+            a = burns.step(lr, a, ga);
+            b = fused.step(lr, b, gb);
+            let (pa, pb) = (parameters(&a), parameters(&b));
+            assert_eq!(pa.len(), pb.len());
+            let differing = pa.iter().zip(&pb).filter(|(x, y)| x != y).count();
+            assert_eq!(differing, 0, "step {i}: {differing} of {} differ", pa.len());
+        }
+        assert_ne!(
+            parameters(&a),
+            parameters(&cfg.init::<AD>(3, &Default::default()).unwrap())
+        );
+    }
+}
