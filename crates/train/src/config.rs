@@ -94,14 +94,15 @@ pub struct TrainConfig {
     #[arg(long, default_value_t = TrainConfig::default().chunk_cache_mib)]
     pub chunk_cache_mib: usize,
     /// Where the network trains: `cpu`, `cuda` or `cuda:N` (builds with the `cuda`
-    /// feature). Left out of the file when `cpu`, so CPU runs keep their records.
+    /// feature; README.md, "GPUs and sample workers").
+    // Written only when not the CPU: records of CPU runs made before it existed hold.
     #[serde(skip_serializing_if = "Device::is_cpu")]
     #[arg(long, default_value_t = TrainConfig::default().device)]
     pub device: Device,
-    /// Threads that prepare samples (read, decode, augment, describe) ahead of the
-    /// step; 0: the cores the step leaves ([`TrainConfig::sample_workers`]). Each
-    /// sample's randomness comes from its stream position, so the samples, and the
-    /// weights, are the same for any number. Speed only: not part of the stage record.
+    /// Threads that prepare samples (decode, augment, describe) ahead of the step; 0:
+    /// the cores the step leaves (1 on the CPU, all but one with CUDA). The samples and
+    /// the weights are the same for any number (each sample's randomness comes from its
+    /// place in the stream). Speed only: not part of the stage record.
     #[serde(skip_serializing_if = "is_zero")]
     #[arg(long, default_value_t = TrainConfig::default().workers)]
     pub workers: usize,
