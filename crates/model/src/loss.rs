@@ -1,9 +1,10 @@
 //! Losses of docs/method.md section 4, per image:
 //! L = delta_m L_m + delta_r L_r + delta_pi L_pi.
 //!
-//! Choices this crate makes where the spec leaves room (recorded in `LossConfig`):
+//! Choices this crate makes where the method (docs/method.md section 4) leaves room
+//! (recorded in `LossConfig`):
 //! - L_pi averages the robust errors over the valid elements of its target set (points and
-//!   lines separately, then added), as the reference does; L_m sums, as the spec says.
+//!   lines separately, then added), as the reference does; L_m sums, as section 4 says.
 //! - In the paper's variant each labelled element's robust error is weighted by its
 //!   predicted reliability r_i, taken as a constant (detached): the weight says how much
 //!   the element is trusted, and letting this term push r_i down (its gradient with respect

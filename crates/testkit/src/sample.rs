@@ -3,8 +3,8 @@
 
 use std::path::{Path, PathBuf};
 
-/// The sample data root: `PL2MAP_SAMPLE_DATA` when set, else the README's default
-/// location next to the workspace (whether or not it exists).
+/// The sample data root: `PL2MAP_SAMPLE_DATA` when set, else the default location that
+/// README.md, "Tests", names, beside the workspace (whether or not it exists).
 pub fn root() -> PathBuf {
     match std::env::var_os("PL2MAP_SAMPLE_DATA") {
         Some(dir) => PathBuf::from(dir),
@@ -21,7 +21,7 @@ pub fn sample_data(sub: &str) -> Option<PathBuf> {
         Some(dir)
     } else {
         crate::skip(format_args!(
-            "sample data {} not found (set PL2MAP_SAMPLE_DATA or provide ../shared/data)",
+            "sample data {} not found (set PL2MAP_SAMPLE_DATA; README.md, \"Tests\")",
             dir.display()
         ));
         None

@@ -63,6 +63,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let dir = match args.images {
         Some(d) => d,
         None => {
+            // The sample data as the tests find it: PL2MAP_SAMPLE_DATA, else the default
+            // location README.md, "Tests", names (relative to the repository root).
             let d = std::env::var_os("PL2MAP_SAMPLE_DATA")
                 .map(PathBuf::from)
                 .unwrap_or_else(|| PathBuf::from("../shared/data"))
