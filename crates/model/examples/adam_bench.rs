@@ -6,22 +6,12 @@
 //! Both run in the training threads' pool (`model::denormals::flushing_pool`, all cores).
 //! The gradients are computed before each timed update, outside the timer.
 
-use model::bench::synthetic_sample;
+use model::bench::{cpu_gradients, synthetic_sample};
 use model::burn::module::Module;
-use model::burn::optim::{GradientsParams, Optimizer};
-use model::dropout::Dropout;
+use model::burn::optim::Optimizer;
 use model::step::{adam_config, new_optimizer};
-use model::{CpuAutodiffBackend as AD, LossConfig, ModelConfig, Pl2Map, Sample, compute_loss};
+use model::{CpuAutodiffBackend as AD, ModelConfig, Pl2Map, Sample};
 use std::time::Instant;
-
-fn gradients(net: &Pl2Map<AD>, sample: &Sample) -> GradientsParams {
-    let t = sample
-        .to_tensors::<AD>(&net.config, &Default::default())
-        .expect("a valid synthetic sample");
-    let p = net.forward_batch(vec![t.input], &mut Dropout::seeded(0.0, 0));
-    let terms = compute_loss(&p[0], &t.targets, &LossConfig::indoor(), 0.9);
-    GradientsParams::from_grads(terms.total.backward(), net)
-}
 
 /// Median seconds of `iters` updates by `optimizer` (after one untimed update, which
 /// creates the moments).
@@ -34,7 +24,7 @@ fn time_updates<O: Optimizer<Pl2Map<AD>, AD>>(
     let mut net = net.clone();
     let mut times = Vec::with_capacity(iters);
     for i in 0..=iters {
-        let grads = gradients(&net, sample);
+        let grads = cpu_gradients(&net, sample).expect("a valid synthetic sample");
         let start = Instant::now();
         net = optimizer.step(1e-4, net, grads);
         if i > 0 {

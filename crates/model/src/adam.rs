@@ -150,12 +150,12 @@ impl<B: Pl2MapBackend> SimpleOptimizer<B> for FusedAdam {
 
 #[cfg(test)]
 mod tests {
-    use crate::dropout::Dropout;
+    use crate::Pl2Map;
+    use crate::bench::cpu_gradients;
     use crate::step::{adam_config, new_optimizer};
     use crate::testutil::{AD, tiny_config, tiny_sample};
-    use crate::{LossConfig, Pl2Map, Sample, compute_loss};
     use burn::module::{Module, ModuleVisitor, Param};
-    use burn::optim::{GradientsParams, Optimizer};
+    use burn::optim::Optimizer;
     use burn::tensor::Tensor;
     use burn::tensor::backend::Backend;
 
@@ -172,15 +172,6 @@ mod tests {
         c.0
     }
 
-    fn gradients(net: &Pl2Map<AD>, sample: &Sample) -> GradientsParams {
-        let t = sample
-            .to_tensors::<AD>(&net.config, &Default::default())
-            .unwrap();
-        let p = net.forward_batch(vec![t.input], &mut Dropout::seeded(0.0, 0));
-        let terms = compute_loss(&p[0], &t.targets, &LossConfig::indoor(), 0.9);
-        GradientsParams::from_grads(terms.total.backward(), net)
-    }
-
     /// Five steps of the fused Adam and of burn's Adam, on the gradients of different
     /// samples, give the same parameters bit for bit after every step (and so the same
     /// moments: a moment that differed would move the next step's parameters).
@@ -194,8 +185,8 @@ mod tests {
         for i in 0..5 {
             let sample = tiny_sample(&cfg, 8 + i, 3);
             let lr = 3e-3 / (i + 1) as f64;
-            let ga = gradients(&a, &sample);
-            let gb = gradients(&b, &sample);
+            let ga = cpu_gradients(&a, &sample).unwrap();
+            let gb = cpu_gradients(&b, &sample).unwrap();
             a = burns.step(lr, a, ga);
             b = fused.step(lr, b, gb);
             let (pa, pb) = (parameters(&a), parameters(&b));

@@ -242,6 +242,21 @@ impl fmt::Display for StepBenchTable {
     }
 }
 
+/// The parameter gradients of one image's loss on the CPU (no dropout, every loss term
+/// on): what an optimiser update is measured and tested on apart from the passes.
+pub fn cpu_gradients(
+    net: &crate::Pl2Map<crate::CpuAutodiffBackend>,
+    sample: &Sample,
+) -> Result<burn::optim::GradientsParams, ModelError> {
+    let t = sample.to_tensors::<crate::CpuAutodiffBackend>(&net.config, &Default::default())?;
+    let p = net.forward_batch(vec![t.input], &mut crate::Dropout::seeded(0.0, 0));
+    let terms = crate::compute_loss(&p[0], &t.targets, &LossConfig::indoor(), 0.9);
+    Ok(burn::optim::GradientsParams::from_grads(
+        terms.total.backward(),
+        net,
+    ))
+}
+
 /// A deterministic synthetic image: unit-norm random descriptors, keypoints and segments
 /// spread over a 640 x 480 image, 80 % of them labelled with back-projections at 1-6 m.
 pub fn synthetic_sample(config: &ModelConfig, n: usize, m: usize, seed: u64) -> Sample {

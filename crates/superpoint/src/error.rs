@@ -29,11 +29,9 @@ pub enum SuperPointError {
         expected: String,
         found: String,
     },
-    /// A GPU asked of a build without the `cuda` feature.
-    #[error(
-        "SuperPoint on cuda:{0}: this pl2map was built without CUDA; build it with `cargo \
-         build --release --locked -p cli --features cuda`"
-    )]
+    /// A GPU asked of a build without the `cuda` feature (callers refuse such a device
+    /// earlier, with the build command: `model::Device::check_built`).
+    #[error("SuperPoint on cuda:{0}: this build has no CUDA backend (the `cuda` feature)")]
     NoCuda(usize),
     #[error(transparent)]
     Features(#[from] features::FeatureError),

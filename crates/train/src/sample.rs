@@ -240,20 +240,19 @@ impl DescriptorCache {
         self.read().frames.contains_key(&frame_id)
     }
 
-    /// (point rows, line rows) of `frame`'s keypoints and segments, described once
-    /// (from `image`, which only an uncached frame needs).
-    fn get(
+    /// (point rows, line rows) of the frame's keypoints and segments, if cached.
+    fn cached(&self, frame_id: u64) -> Option<Arc<FrameDescriptors>> {
+        self.read().frames.get(&frame_id).map(Arc::clone)
+    }
+
+    /// Describes a frame that is not cached (`image` is its unaugmented image) and keeps
+    /// its rows if the budget has room; None (and no work) when it has none.
+    fn describe_and_keep(
         &self,
         frame: &FrameRecord,
-        image: Option<&GrayImage>,
+        image: &GrayImage,
         fe: &dyn FrontEnd,
     ) -> Result<Option<Arc<FrameDescriptors>>, TrainError> {
-        if let Some(d) = self.read().frames.get(&frame.frame_id) {
-            return Ok(Some(Arc::clone(d)));
-        }
-        let Some(image) = image else {
-            return Ok(None);
-        };
         // Sized before describing: a frame past the budget costs nothing extra.
         let size = 4 * fe.dim() * rows(frame, fe);
         if self.read().bytes + size > self.budget_bytes {
@@ -329,45 +328,42 @@ pub fn prepare_with_cache<R: Rng>(
             .iter()
             .zip(&segments)
             .all(|(&j, s)| frame.segments[j] == *s);
-    // Such a sample of a cached frame needs no image at all: decoding it was most of its
-    // cost (the frame was checked when it was cached).
-    let from_cache = unchanged && cache.is_some_and(|c| c.contains(frame.frame_id));
-    let image = if from_cache {
-        None
-    } else {
-        let gray = decode_checked(frame)?;
-        let warped = augment::warp_image(&gray, &frame.camera, &params)
-            .map_err(|e| frame_err(frame, format!("augmentation: {e}")))?;
-        Some(warped)
+    // The rows of the whole frame, in the order of the sample's keypoints and segments.
+    let select = |(p, l): &FrameDescriptors| -> (Vec<f32>, Vec<f32>) {
+        let d = front_end.dim();
+        let td = front_end.samples_per_line() * d;
+        (
+            keypoint_index
+                .iter()
+                .flat_map(|&i| p[i * d..(i + 1) * d].iter().copied())
+                .collect(),
+            segment_index
+                .iter()
+                .flat_map(|&j| l[j * td..(j + 1) * td].iter().copied())
+                .collect(),
+        )
     };
-    let cached = match cache {
-        Some(c) if unchanged => c.get(frame, image.as_ref(), front_end)?,
-        _ => None,
-    };
-    let (mut point_descriptors, mut line_descriptors) = match (cached.as_deref(), &image) {
-        (Some((p, l)), _) => {
-            let d = front_end.dim();
-            let td = front_end.samples_per_line() * d;
-            (
-                keypoint_index
-                    .iter()
-                    .flat_map(|&i| p[i * d..(i + 1) * d].iter().copied())
-                    .collect(),
-                segment_index
-                    .iter()
-                    .flat_map(|&j| l[j * td..(j + 1) * td].iter().copied())
-                    .collect(),
-            )
-        }
-        (None, Some(image)) => front_end.describe(image, &keypoints, &segments)?,
-        // `from_cache` held, so the cache has the frame and its positions are unchanged.
-        (None, None) => {
-            return Err(frame_err(
-                frame,
-                "its cached descriptors disappeared (a bug)".into(),
-            ));
-        }
-    };
+    // Only a sample at the frame's own positions can use the whole frame's rows.
+    let cache = cache.filter(|_| unchanged);
+    let (mut point_descriptors, mut line_descriptors) =
+        match cache.and_then(|c| c.cached(frame.frame_id)) {
+            // A cached frame needs no image at all: decoding it was most of the sample's
+            // cost (the frame was checked when it was cached).
+            Some(rows) => select(&rows),
+            None => {
+                let gray = decode_checked(frame)?;
+                let image = augment::warp_image(&gray, &frame.camera, &params)
+                    .map_err(|e| frame_err(frame, format!("augmentation: {e}")))?;
+                let kept = match cache {
+                    Some(c) => c.describe_and_keep(frame, &image, front_end)?,
+                    None => None,
+                };
+                match kept {
+                    Some(rows) => select(&rows),
+                    None => front_end.describe(&image, &keypoints, &segments)?,
+                }
+            }
+        };
 
     // Drawn after everything else, and nothing is drawn when it is off: without it the
     // stream is the same.

@@ -112,13 +112,14 @@ pub fn run(
     dir: &Path,
     options: &TrainStageOptions,
 ) -> Result<Done<TrainOutput>, TrainError> {
-    // Before anything is read or written.
-    config.device.check_built()?;
-    let (paths, shard_inputs) = split_shards(shard_dir, Split::Train)?;
     let mut config = config.clone();
     if let Some(n) = options.iterations {
         config.iterations = n;
     }
+    // The whole configuration (a CUDA device in a CPU build among it) before anything
+    // is read or written.
+    config.validate()?;
+    let (paths, shard_inputs) = split_shards(shard_dir, Split::Train)?;
     let model = dir.join(MODEL_FILE);
     let output = |summary| TrainOutput {
         model: model.clone(),
