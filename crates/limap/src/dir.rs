@@ -1,4 +1,7 @@
-//! A LIMAP output folder (`cfg.output_dir` of line triangulation):
+//! A LIMAP output folder (`cfg.output_dir` of line triangulation), in either layout:
+//! LIMAP 1.x (below) or LIMAP 2.0 (`final_model/`, see the `limap2` module). The layout is
+//! detected: `image_list.txt` makes a 1.x folder, `final_model/structures/` (or a path
+//! that is `final_model/` itself) a 2.0 folder. LIMAP 1.x:
 //!
 //! ```text
 //! image_list.txt
@@ -52,22 +55,60 @@ pub enum SegmentsOrigin {
     Given,
     /// The only candidate found in the folder.
     Detected,
+    /// LIMAP 2.0 without its `frontend/` folder: the 2D lines of `structures2d.bin`.
+    Structures,
 }
 
-/// Everything of a LIMAP folder that is stored as text.
+/// Which LIMAP wrote the folder.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Layout {
+    /// `image_list.txt`, `finaltracks/`, `alltracks.txt`, segments text files.
+    Limap1,
+    /// `final_model/`: a COLMAP model and `structures/*.bin`.
+    Limap2,
+}
+
+impl Layout {
+    pub fn name(self) -> &'static str {
+        match self {
+            Layout::Limap1 => "LIMAP 1.x",
+            Layout::Limap2 => "LIMAP 2.0",
+        }
+    }
+}
+
+/// Everything of a LIMAP folder the labels need, whichever layout it has.
 #[derive(Debug, Clone)]
 pub struct LimapDir {
+    /// The LIMAP output folder (for a path given as `final_model/`, its parent).
     pub root: PathBuf,
+    pub layout: Layout,
+    /// LIMAP 2.0: the `final_model/` folder the image list comes from.
+    pub model_dir: Option<PathBuf>,
+    /// LIMAP 1.x: `image_list.txt`; LIMAP 2.0: the model's images by id.
     pub image_list: ImageList,
     pub segments_dir: PathBuf,
     pub segments_origin: SegmentsOrigin,
     /// Segments per image id.
     pub segments: BTreeMap<u32, Segments>,
+    /// LIMAP 1.x: the track folder; LIMAP 2.0: `final_model/structures/`.
     pub tracks_dir: PathBuf,
-    /// `track_<i>.txt` at index i.
+    /// `track_<i>.txt` at index i (LIMAP 2.0: the records of `lines3D.bin` in file order).
     pub tracks: Vec<LineTrack>,
-    /// `alltracks.txt`, when present.
+    /// LIMAP 2.0: the id of each track in `lines3D.bin`.
+    pub line3d_ids: Option<Vec<u64>>,
+    /// `alltracks.txt`, when present (LIMAP 2.0: the tracks seen in >= 4 images, always).
     pub alltracks: Option<Vec<LineTrack>>,
+}
+
+/// A group of files a [`LimapDir`] was read from: a folder and file names in it.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct InputFiles {
+    /// `limap` (image list, alltracks / the model), `limap_segments` or `limap_tracks`.
+    pub name: &'static str,
+    pub dir: PathBuf,
+    pub files: Vec<String>,
 }
 
 impl LimapDir {
@@ -95,6 +136,12 @@ impl LimapDir {
         if !root.is_dir() {
             return Err(LimapError::NotADirectory { path: root });
         }
+        if !root.join(IMAGE_LIST_FILE).exists() {
+            if let Some((output, model_dir)) = crate::limap2::locate(&root) {
+                return crate::limap2::open(output, model_dir, options);
+            }
+            return Err(LimapError::UnknownLayout { root });
+        }
         let image_list = read_image_list(root.join(IMAGE_LIST_FILE))?;
         let (segments_dir, segments_origin) = match &options.segments {
             Some(p) => (p.clone(), SegmentsOrigin::Given),
@@ -116,14 +163,72 @@ impl LimapDir {
         };
         Ok(LimapDir {
             root,
+            layout: Layout::Limap1,
+            model_dir: None,
             image_list,
             segments_dir,
             segments_origin,
             segments,
             tracks_dir,
             tracks,
+            line3d_ids: None,
             alltracks,
         })
+    }
+
+    /// The files the folder was read from, in three groups (the import hashes each):
+    /// `limap` (1.x: `image_list.txt` and `alltracks.txt`; 2.0: the model's files),
+    /// `limap_segments` (the `segments_<id>.txt` files, or `structures2d.bin`) and
+    /// `limap_tracks` (1.x: `track*.txt`; 2.0: `lines3D.bin` and `structures2d.bin`).
+    pub fn input_files(&self) -> Result<Vec<InputFiles>, LimapError> {
+        let s2d = crate::structures::STRUCTURES2D_FILE.to_string();
+        let (top_dir, top) = match (&self.layout, &self.model_dir) {
+            (Layout::Limap2, Some(model)) => (
+                model.clone(),
+                crate::limap2::MODEL_FILES
+                    .iter()
+                    .filter(|f| model.join(f).is_file())
+                    .map(|f| f.to_string())
+                    .collect(),
+            ),
+            _ => {
+                let mut top = vec![IMAGE_LIST_FILE.to_string()];
+                if self.root.join(ALLTRACKS_FILE).is_file() {
+                    top.push(ALLTRACKS_FILE.to_string());
+                }
+                (self.root.clone(), top)
+            }
+        };
+        let segments = if self.segments_origin == SegmentsOrigin::Structures {
+            vec![s2d.clone()]
+        } else {
+            sorted_files(&self.segments_dir, |n| {
+                n.starts_with("segments_") && n.ends_with(".txt")
+            })?
+        };
+        let tracks = match self.layout {
+            Layout::Limap1 => sorted_files(&self.tracks_dir, |n| {
+                n.starts_with("track") && n.ends_with(".txt")
+            })?,
+            Layout::Limap2 => vec![crate::structures::LINES3D_FILE.to_string(), s2d],
+        };
+        Ok(vec![
+            InputFiles {
+                name: "limap",
+                dir: top_dir,
+                files: top,
+            },
+            InputFiles {
+                name: "limap_segments",
+                dir: self.segments_dir.clone(),
+                files: segments,
+            },
+            InputFiles {
+                name: "limap_tracks",
+                dir: self.tracks_dir.clone(),
+                files: tracks,
+            },
+        ])
     }
 
     /// Runs every consistency check.
@@ -179,6 +284,19 @@ fn sorted_entries(dir: &Path) -> Result<Vec<PathBuf>, LimapError> {
     let mut out = Vec::new();
     for entry in read {
         out.push(entry.map_err(|e| LimapError::io(dir, e))?.path());
+    }
+    out.sort();
+    Ok(out)
+}
+
+/// The names of the plain files of `dir` that `keep` accepts, sorted.
+fn sorted_files(dir: &Path, keep: impl Fn(&str) -> bool) -> Result<Vec<String>, LimapError> {
+    let mut out = Vec::new();
+    for path in sorted_entries(dir)? {
+        let name = file_name(&path);
+        if keep(&name) && path.is_file() {
+            out.push(name);
+        }
     }
     out.sort();
     Ok(out)

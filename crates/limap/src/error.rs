@@ -8,6 +8,7 @@ use std::path::PathBuf;
 use thiserror::Error;
 
 use crate::check::Problem;
+use crate::structures::BinaryError;
 
 /// A malformed LIMAP text file: where (1-based line and byte column) and what was expected.
 #[derive(Debug, Clone, PartialEq, Eq, Error)]
@@ -76,6 +77,36 @@ pub enum LimapError {
     },
     #[error("{}: not a directory", path.display())]
     NotADirectory { path: PathBuf },
+    #[error(
+        "{}: not a LIMAP output folder: no image_list.txt (LIMAP 1.x) and no \
+         final_model/structures/ (LIMAP 2.0; or pass final_model/ itself)",
+        root.display()
+    )]
+    UnknownLayout { root: PathBuf },
+    /// A malformed LIMAP 2.0 binary structure file.
+    #[error("{}: {source}", path.display())]
+    Binary {
+        path: PathBuf,
+        #[source]
+        source: BinaryError,
+    },
+    /// A LIMAP 2.0 record that parses but refers to something the folder lacks.
+    #[error("{}: {record}: {problem}", path.display())]
+    Record {
+        path: PathBuf,
+        record: String,
+        problem: String,
+    },
+    /// The COLMAP model of a LIMAP 2.0 folder (`final_model/`).
+    #[error("LIMAP 2.0 model {}: {source}", dir.display())]
+    Colmap {
+        dir: PathBuf,
+        #[source]
+        source: Box<colmap::ColmapError>,
+    },
+    /// Options that do not apply to the folder.
+    #[error("{0}")]
+    Options(String),
     /// A value handed to a writer that the format cannot hold or LIMAP could not read back.
     #[error("cannot write {what}: {reason}")]
     InvalidData { what: String, reason: String },
@@ -94,6 +125,10 @@ impl LimapError {
             path: path.into(),
             source,
         }
+    }
+
+    pub(crate) fn invalid_option(message: String) -> Self {
+        LimapError::Options(message)
     }
 
     pub(crate) fn invalid(what: impl Into<String>, reason: impl Into<String>) -> Self {

@@ -6,7 +6,7 @@ use serde::Serialize;
 
 use crate::alltracks::ALLTRACKS_MIN_IMAGES;
 use crate::check::{Check, CheckReport};
-use crate::dir::{LimapDir, SegmentsOrigin};
+use crate::dir::{Layout, LimapDir, SegmentsOrigin};
 
 /// How many problems of each check are spelled out.
 pub const EXAMPLES_PER_CHECK: usize = 5;
@@ -67,6 +67,7 @@ pub struct CheckSummary {
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Summary {
     pub root: String,
+    pub layout: Layout,
     pub segments_dir: String,
     pub segments_origin: SegmentsOrigin,
     pub images: usize,
@@ -112,6 +113,7 @@ impl Summary {
             .collect();
         Summary {
             root: dir.root.display().to_string(),
+            layout: dir.layout,
             segments_dir: dir.segments_dir.display().to_string(),
             segments_origin: dir.segments_origin,
             images: dir.image_list.len(),
@@ -149,10 +151,11 @@ fn dist(f: &mut fmt::Formatter<'_>, label: &str, d: &Option<Distribution>) -> fm
 
 impl fmt::Display for Summary {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        writeln!(f, "LIMAP folder {}", self.root)?;
+        writeln!(f, "LIMAP folder {} ({})", self.root, self.layout.name())?;
         let origin = match self.segments_origin {
             SegmentsOrigin::Given => "given",
             SegmentsOrigin::Detected => "auto-detected, the only candidate",
+            SegmentsOrigin::Structures => "the 2D lines of structures2d.bin",
         };
         writeln!(
             f,
@@ -167,6 +170,9 @@ impl fmt::Display for Summary {
         )?;
         writeln!(f, "  finaltracks            {}", self.finaltracks)?;
         match self.alltracks {
+            Some(n) if self.layout == Layout::Limap2 => {
+                writeln!(f, "  alltracks (derived)    {n}")?
+            }
             Some(n) => writeln!(f, "  alltracks.txt          {n}")?,
             None => writeln!(f, "  alltracks.txt          absent")?,
         }

@@ -290,49 +290,17 @@ fn model_files(dir: &Path) -> Result<Vec<String>, ImportError> {
     Ok(out)
 }
 
-fn sorted_files(dir: &Path, keep: impl Fn(&str) -> bool) -> Result<Vec<String>, ImportError> {
-    let io = |source| ImportError::Io {
-        path: dir.to_path_buf(),
-        source,
-    };
-    let mut out = Vec::new();
-    for entry in std::fs::read_dir(dir).map_err(io)? {
-        let entry = entry.map_err(io)?;
-        let name = entry.file_name().to_string_lossy().into_owned();
-        if keep(&name) && entry.path().is_file() {
-            out.push(name);
-        }
-    }
-    out.sort();
-    Ok(out)
-}
-
-/// Content hashes of every LIMAP file the import reads.
+/// Content hashes of every LIMAP file the import reads (either layout: the folder lists
+/// them, `limap::LimapDir::input_files`).
 fn limap_hashes(dir: &LimapDir) -> Result<BTreeMap<String, String>, ImportError> {
-    let mut top = vec![limap::dir::IMAGE_LIST_FILE.to_string()];
-    if dir.root.join(limap::dir::ALLTRACKS_FILE).is_file() {
-        top.push(limap::dir::ALLTRACKS_FILE.to_string());
+    let mut out = BTreeMap::new();
+    for group in dir.input_files()? {
+        out.insert(
+            group.name.to_string(),
+            stage::sha256_files(&group.dir, group.files.iter().map(String::as_str))?,
+        );
     }
-    let segs = sorted_files(&dir.segments_dir, |n| {
-        n.starts_with("segments_") && n.ends_with(".txt")
-    })?;
-    let tracks = sorted_files(&dir.tracks_dir, |n| {
-        n.starts_with("track") && n.ends_with(".txt")
-    })?;
-    Ok(BTreeMap::from([
-        (
-            "limap".to_string(),
-            stage::sha256_files(&dir.root, top.iter().map(String::as_str))?,
-        ),
-        (
-            "limap_segments".to_string(),
-            stage::sha256_files(&dir.segments_dir, segs.iter().map(String::as_str))?,
-        ),
-        (
-            "limap_tracks".to_string(),
-            stage::sha256_files(&dir.tracks_dir, tracks.iter().map(String::as_str))?,
-        ),
-    ]))
+    Ok(out)
 }
 
 /// Makes the chosen track set the one the labels are built from.
