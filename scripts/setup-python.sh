@@ -4,6 +4,24 @@
 # success; on failure (no python3, no network) prints nothing and the tests that need
 # it skip with a reason.
 set -uo pipefail
+
+# The real tools' test (crates/labels/tests/limap_real.rs, scripts/limap-tiny.py): LIMAP
+# 2.0 and its LSD in a venv of their own, since pylimap pins pycolmap 4.2.0 and the
+# interop venv below pins 4.2.1. The test finds it at this path (or PL2MAP_LIMAP_PYTHON).
+# Its failures are tolerated and it writes nothing to stdout, so the interop venv and the
+# line this script prints are unaffected. pip installs wheels only (no compiler).
+limap_venv="$HOME/.cache/pl2map-rs/limap-venv"
+limap_want="pylimap==2.0.0 pytlsd==0.0.2"
+limap_stamp="$limap_venv/.pl2map-requirements"
+if command -v python3 >/dev/null 2>&1 &&
+   ! { [ -x "$limap_venv/bin/python" ] && [ "$(cat "$limap_stamp" 2>/dev/null)" = "$limap_want" ]; }; then
+  {
+    python3 -m venv "$limap_venv" &&
+    "$limap_venv/bin/python" -m pip install -q $limap_want &&
+    echo "$limap_want" > "$limap_stamp"
+  } >&2 || echo "LIMAP venv not installed ($limap_venv): the real tools' test will skip" >&2
+fi
+
 venv="${PL2MAP_VENV:-$HOME/.cache/pl2map-rs/venv}"
 # torch (the SuperPoint peer, crates/superpoint/tests), opencv-python-headless (its
 # resize) and h5py (reads `pl2map features` files). PyPI's torch wheel; the CPU build
