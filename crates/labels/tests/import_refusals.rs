@@ -311,6 +311,37 @@ fn refuses_segments_outside_the_image() {
 }
 
 #[test]
+fn segments_just_past_the_border_are_refused_naming_lsds_overshoot() {
+    // LSD's endpoints overshoot the border by up to about 3 px (docs/formats.md): the
+    // message names the tolerance that imports them, not the segment scale.
+    let mut s = scene();
+    let image = *s.segments.keys().next().unwrap();
+    s.segments.get_mut(&image).unwrap().lines[0][0] = -2.5;
+    // The tracks keep a copy of their segments (checked against the segments files).
+    for t in &mut s.tracks {
+        let supports: Vec<(u32, u32)> = t.supports().collect();
+        for (k, support) in supports.into_iter().enumerate() {
+            if support == (image, 0) {
+                t.lines2d.as_mut().unwrap()[k][0] = -2.5;
+            }
+        }
+    }
+    s.write_limap();
+    let e = refuse(&s, &ImportConfig::default());
+    has(
+        &e,
+        "segments_outside_image",
+        "the farthest endpoint 2.50 px past the border (LSD puts endpoints up to about 3 px \
+         past the border: import with bounds_tolerance_px = 3 (--bounds-tolerance-px 3))",
+    );
+    let config = ImportConfig {
+        bounds_tolerance_px: 3.0,
+        ..Default::default()
+    };
+    import::run(&s.with_inputs(&config), &s.frames_path, &s.out("tolerated")).unwrap();
+}
+
+#[test]
 fn refuses_keypoints_outside_the_image() {
     let mut s = scene();
     s.model.images[0].points2d[0].xy = [700.0, 10.0];

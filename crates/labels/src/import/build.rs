@@ -131,6 +131,15 @@ fn inside(xy: [f64; 2], size: (u64, u64), tol: f64) -> bool {
     xy[0] >= -tol && xy[1] >= -tol && xy[0] <= size.0 as f64 + tol && xy[1] <= size.1 as f64 + tol
 }
 
+/// How far (pixels) `xy` lies outside the image; 0 inside.
+fn overshoot(xy: [f64; 2], size: (u64, u64)) -> f64 {
+    (-xy[0])
+        .max(-xy[1])
+        .max(xy[0] - size.0 as f64)
+        .max(xy[1] - size.1 as f64)
+        .max(0.0)
+}
+
 fn degenerate(line: &[[f64; 3]; 2]) -> bool {
     let finite = line.iter().flatten().all(|v| v.is_finite());
     let len2: f64 = (0..3).map(|k| (line[1][k] - line[0][k]).powi(2)).sum();
@@ -375,10 +384,14 @@ pub fn build(
 
         if let Some(segs) = limap.segments.get(&lid) {
             let mut outside: Vec<(usize, [f64; 4])> = Vec::new();
+            let mut max_overshoot_px = 0.0_f64;
             for (k, s) in segs.lines.iter().enumerate() {
                 let seg = s.map(|v| v * config.segment_scale);
                 if !(inside([seg[0], seg[1]], size, tol) && inside([seg[2], seg[3]], size, tol)) {
                     outside.push((k, seg));
+                    max_overshoot_px = max_overshoot_px
+                        .max(overshoot([seg[0], seg[1]], size))
+                        .max(overshoot([seg[2], seg[3]], size));
                 }
                 report.lines.segments += 1;
                 let track = supports.get(&(lid, k as u32)).copied();
@@ -421,6 +434,7 @@ pub fn build(
                     first_index,
                     first,
                     size,
+                    max_overshoot_px,
                 });
             }
         }

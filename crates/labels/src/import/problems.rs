@@ -132,8 +132,17 @@ pub enum ImportProblem {
         first_index: usize,
         first: [f64; 4],
         size: (u64, u64),
+        /// How far (pixels) the farthest endpoint of the frame lies past the border.
+        max_overshoot_px: f64,
     },
 }
+
+/// How far past the image border LSD puts segment endpoints: pytlsd (LIMAP's `lsd`)
+/// detects on the image scaled by 0.8 and extends a segment to its support rectangle, so
+/// an endpoint of a segment along the border lands up to about this far outside (1.0 px
+/// on LIMAP 2.0's output of the tiny synthetic scene, 2.7 px on the 200-image room;
+/// docs/formats.md section 2). Segments farther out than this point at a wrong scale.
+pub const LSD_OVERSHOOT_PX: f64 = 3.0;
 
 impl ImportProblem {
     /// A stable name of the kind of problem (the serde tag), for grouping.
@@ -441,12 +450,26 @@ impl fmt::Display for ImportProblem {
                 first_index,
                 first,
                 size,
-            } => write!(
-                f,
-                "training frame {frame_id} {name:?}: {count} segment(s) outside the {}x{} image, first \
-                 #{first_index} ({}, {}, {}, {}) (LIMAP rescales images to max_image_dim: set the segment scale)",
-                size.0, size.1, first[0], first[1], first[2], first[3]
-            ),
+                max_overshoot_px,
+            } => {
+                write!(
+                    f,
+                    "training frame {frame_id} {name:?}: {count} segment(s) outside the {}x{} image, \
+                     first #{first_index} ({}, {}, {}, {}), the farthest endpoint {max_overshoot_px:.2} px \
+                     past the border ",
+                    size.0, size.1, first[0], first[1], first[2], first[3]
+                )?;
+                if *max_overshoot_px <= LSD_OVERSHOOT_PX {
+                    write!(
+                        f,
+                        "(LSD puts endpoints up to about {LSD_OVERSHOOT_PX} px past the border: \
+                         import with bounds_tolerance_px = {LSD_OVERSHOOT_PX} \
+                         (--bounds-tolerance-px {LSD_OVERSHOOT_PX}))"
+                    )
+                } else {
+                    f.write_str("(LIMAP rescales images to max_image_dim: set the segment scale)")
+                }
+            }
         }
     }
 }
