@@ -210,6 +210,7 @@ def report(recon, holistic, all_segs, limap_dir: Path, times):
             str(i): point_model.images[i].name for i in sorted(point_model.images)
         },
         "points3d": point_model.num_points3D(),
+        "observations": point_model.compute_num_observations(),
         "mean_track_length": point_model.compute_mean_track_length(),
         "lines2d_per_image": {
             str(i): structures2d[i].num_lines() for i in sorted(structures2d)

@@ -43,6 +43,59 @@ pub fn python(modules: &[&str]) -> Option<PathBuf> {
     }
 }
 
+/// The interpreter of the LIMAP venv (pylimap 2.0 and pytlsd, in a venv of their own:
+/// scripts/setup-python.sh): `PL2MAP_LIMAP_PYTHON`, else
+/// `~/.cache/pl2map-rs/limap-venv/bin/python`, once it has run `import <modules>`. None
+/// after printing `SKIPPED <test>: <why>` when there is none or an import fails.
+pub fn limap_python(modules: &[&str]) -> Option<PathBuf> {
+    let python = match std::env::var_os("PL2MAP_LIMAP_PYTHON") {
+        Some(p) if !p.is_empty() => PathBuf::from(p),
+        _ => match std::env::var_os("HOME") {
+            Some(home) => PathBuf::from(home).join(".cache/pl2map-rs/limap-venv/bin/python"),
+            None => {
+                crate::skip("PL2MAP_LIMAP_PYTHON is not set and there is no HOME");
+                return None;
+            }
+        },
+    };
+    if !python.exists() {
+        crate::skip(format_args!(
+            "no LIMAP venv: {} does not exist (scripts/setup-python.sh makes it; or set \
+             PL2MAP_LIMAP_PYTHON)",
+            python.display()
+        ));
+        return None;
+    }
+    probe(python, modules)
+}
+
+/// `python -c "import <modules>"`: the interpreter when it succeeds, else None after the
+/// skip line.
+fn probe(python: PathBuf, modules: &[&str]) -> Option<PathBuf> {
+    let probe = if modules.is_empty() {
+        "import sys".to_string()
+    } else {
+        format!("import {}", modules.join(", "))
+    };
+    match Command::new(&python).args(["-c", &probe]).output() {
+        Ok(out) if out.status.success() => Some(python),
+        Ok(out) => {
+            let stderr = String::from_utf8_lossy(&out.stderr);
+            let why = stderr.lines().rev().find(|l| !l.trim().is_empty());
+            crate::skip(format_args!(
+                "{} cannot `{probe}`: {}",
+                python.display(),
+                why.unwrap_or("no error output").trim()
+            ));
+            None
+        }
+        Err(e) => {
+            crate::skip(format_args!("cannot run {}: {e}", python.display()));
+            None
+        }
+    }
+}
+
 /// The standard output of `cmd`, which must succeed: a failure panics with the command,
 /// its exit status and its standard error.
 pub fn run(cmd: &mut Command) -> Vec<u8> {
