@@ -158,19 +158,38 @@ fn lines_of(path: &Path) -> Vec<String> {
         .collect()
 }
 
-#[test]
-fn same_poses_as_the_score_stage_for_any_thread_count() {
-    let s = scene();
-    // Every frame in frames-table order: a query's position is its frame id, the
-    // RANSAC seed key of both commands.
+/// `name MODEL W H PARAMS...` lines of `frames`.
+fn query_list<'a>(frames: impl IntoIterator<Item = &'a tables::Frame>) -> String {
     let mut list = String::from("# the tiny synthetic scene\n");
-    for (i, f) in s.frames.frames.iter().enumerate() {
-        assert_eq!(f.id as usize, i);
+    for f in frames {
         list.push_str(&format!("{} {}\n", f.name, camera_spec(&f.camera)));
     }
+    list
+}
+
+/// The lines of an hloc results file by image name.
+fn results_by_name(path: &Path) -> std::collections::BTreeMap<String, String> {
+    lines_of(path)
+        .into_iter()
+        .map(|l| (l.split(' ').next().unwrap().to_string(), l))
+        .collect()
+}
+
+#[test]
+fn same_poses_as_the_score_stage_for_any_thread_count_and_list_order() {
+    let s = scene();
+    // Every frame, in a shuffled order (reversed, then every third one moved to the
+    // front): an image's pose must depend neither on its place in the list nor on the
+    // command that localised it (RANSAC is seeded by the image's name).
+    let mut order: Vec<&tables::Frame> = s.frames.frames.iter().rev().collect();
+    let (mut front, back): (Vec<_>, Vec<_>) =
+        order.drain(..).enumerate().partition(|(i, _)| i % 3 == 0);
+    front.extend(back);
+    let order: Vec<&tables::Frame> = front.into_iter().map(|(_, f)| f).collect();
+    assert!(order.iter().enumerate().any(|(i, f)| f.id as usize != i));
     let dir = tempfile::tempdir().unwrap();
     let list_path = dir.path().join("queries_with_intrinsics.txt");
-    std::fs::write(&list_path, list).unwrap();
+    std::fs::write(&list_path, query_list(order)).unwrap();
     let one = dir.path().join("one");
     let two = dir.path().join("two");
     let stdout = ok(
@@ -182,15 +201,15 @@ fn same_poses_as_the_score_stage_for_any_thread_count() {
         localize(&list_path, &s.scene, &two, 2),
         "localize (2 threads)",
     );
-    let results = lines_of(&one.join("results.txt"));
     assert_eq!(
         std::fs::read(one.join("results.txt")).unwrap(),
         std::fs::read(two.join("results.txt")).unwrap(),
         "results differ between 1 and 2 threads"
     );
-    // The score stage's points + lines poses of the test frames, line for line.
-    let scored = lines_of(&s.score.join("results_points_lines.txt"));
+    // The score stage's points + lines poses of the test frames, image for image.
+    let scored = results_by_name(&s.score.join("results_points_lines.txt"));
     assert!(!scored.is_empty(), "the score stage localised no frame");
+    let localized = results_by_name(&one.join("results.txt"));
     let test_names: Vec<&str> = s
         .frames
         .frames
@@ -198,19 +217,75 @@ fn same_poses_as_the_score_stage_for_any_thread_count() {
         .filter(|f| f.split == tables::Split::Test)
         .map(|f| f.name.as_str())
         .collect();
-    let localized_test: Vec<&String> = results
-        .iter()
-        .filter(|l| test_names.contains(&l.split(' ').next().unwrap()))
+    let localized_test: std::collections::BTreeMap<String, String> = localized
+        .into_iter()
+        .filter(|(name, _)| test_names.contains(&name.as_str()))
         .collect();
-    assert_eq!(localized_test.len(), scored.len());
-    for (a, b) in localized_test.iter().zip(&scored) {
-        assert_eq!(*a, b, "localize and score disagree");
-    }
+    assert_eq!(localized_test, scored, "localize and score disagree");
     // The table: one row per query, every one read.
     let table = lines_of(&one.join("per_image.csv"));
     assert_eq!(table.len(), 1 + s.frames.frames.len());
     assert!(table[0].starts_with("id,name,origin,status,"));
     assert!(!table.iter().any(|l| l.contains("bad_input")));
+}
+
+/// A JPEG cut short (a damaged download) is named with its file and the byte offset
+/// where it ends, by `pl2map localize` and by `pl2map features`; the other images are
+/// still localised / written, and the exit status is non-zero.
+#[test]
+fn truncated_jpeg_queries_are_named_with_the_byte_offset() {
+    let s = scene();
+    let dir = tempfile::tempdir().unwrap();
+    let good = &s.frames.frames[24];
+    let rgb = image::open(s.scene.join(&good.name)).unwrap().to_rgb8();
+    let mut jpeg = Vec::new();
+    image::codecs::jpeg::JpegEncoder::new_with_quality(&mut jpeg, 95)
+        .encode_image(&rgb)
+        .unwrap();
+    let cut = jpeg.len() / 2;
+    std::fs::write(dir.path().join("whole.jpg"), &jpeg).unwrap();
+    std::fs::write(dir.path().join("cut.jpg"), &jpeg[..cut]).unwrap();
+    let cam = camera_spec(&good.camera);
+    let list_path = dir.path().join("q.txt");
+    std::fs::write(&list_path, format!("whole.jpg {cam}\ncut.jpg {cam}\n")).unwrap();
+    let out = dir.path().join("out");
+    let o = localize(&list_path, dir.path(), &out, 2);
+    assert!(!o.status.success(), "a damaged query must fail the command");
+    let table = lines_of(&out.join("per_image.csv"));
+    assert_eq!(table.len(), 3, "{table:?}");
+    assert!(!table[1].contains("bad_input"), "{}", table[1]);
+    assert!(
+        table[2].contains("bad_input")
+            && table[2].contains("cut.jpg")
+            && table[2].contains("truncated JPEG")
+            && table[2].contains(&format!("byte {cut}")),
+        "{}",
+        table[2]
+    );
+
+    // `pl2map features` over the same folder: the whole image written, the cut one named.
+    let images = dir.path().join("images");
+    std::fs::create_dir_all(&images).unwrap();
+    for f in ["whole.jpg", "cut.jpg"] {
+        std::fs::copy(dir.path().join(f), images.join(f)).unwrap();
+    }
+    let h5 = dir.path().join("feats.h5");
+    let o = pl2map()
+        .args(["features", "--front-end", "sift", "--images"])
+        .arg(&images)
+        .arg("--out")
+        .arg(&h5)
+        .output()
+        .unwrap();
+    assert!(!o.status.success(), "features must fail on a damaged image");
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        stderr.contains("1 of 2 images")
+            && stderr.contains("cut.jpg")
+            && stderr.contains(&format!("byte {cut}")),
+        "{stderr}"
+    );
+    assert!(h5.exists(), "the readable image's features are written");
 }
 
 #[test]
@@ -471,6 +546,49 @@ fn query_segments_from_limap_files() {
     };
     let out = dir.path().join("score");
     ok(score(&out), "score with query segments");
+
+    // `pl2map localize --query-segments`: the same folder gives the poses of the
+    // detector's own lines; a folder that does not exist is refused before any image.
+    let list_path = dir.path().join("q.txt");
+    std::fs::write(&list_path, query_list(test.iter().copied())).unwrap();
+    let localize_with = |segments: &Path, out: &Path| {
+        pl2map()
+            .arg("localize")
+            .arg("--checkpoint")
+            .arg(&s.model)
+            .arg("--queries")
+            .arg(&list_path)
+            .arg("--images")
+            .arg(&s.scene)
+            .arg("--out")
+            .arg(out)
+            .args(["--max-iterations", MAX_ITERATIONS])
+            .arg("--query-segments")
+            .arg(segments)
+            .output()
+            .unwrap()
+    };
+    let with = dir.path().join("localize-segments");
+    ok(
+        localize_with(&limap_dir, &with),
+        "localize --query-segments",
+    );
+    let without = dir.path().join("localize-lsd");
+    ok(localize(&list_path, &s.scene, &without, 2), "localize");
+    assert_eq!(
+        std::fs::read(with.join("results.txt")).unwrap(),
+        std::fs::read(without.join("results.txt")).unwrap()
+    );
+    let gone = dir.path().join("no-such-folder");
+    let refused = dir.path().join("localize-refused");
+    let o = localize_with(&gone, &refused);
+    assert!(
+        !o.status.success(),
+        "a missing --query-segments folder must be refused"
+    );
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(stderr.contains("no-such-folder"), "{stderr}");
+    assert!(!refused.join("results.txt").exists());
     assert_eq!(
         std::fs::read(out.join("results_points_lines.txt")).unwrap(),
         std::fs::read(s.score.join("results_points_lines.txt")).unwrap()

@@ -9,12 +9,11 @@ pub enum FeatureError {
         #[source]
         source: opencv::Error,
     },
-    #[error("{path}: cannot read image: {source}")]
-    Image {
-        path: PathBuf,
-        #[source]
-        source: image::ImageError,
-    },
+    #[error("{path}: cannot read image: {reason}")]
+    Image { path: PathBuf, reason: String },
+    /// Image bytes that OpenCV's decoder refuses (the caller names the file or frame).
+    #[error("cannot decode the image: {0}")]
+    Decode(String),
     #[error("image {width}x{height} is too large or empty for OpenCV")]
     ImageSize { width: u32, height: u32 },
     #[error("OpenCV returned {got} descriptors for {expected} positions")]

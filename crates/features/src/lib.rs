@@ -29,7 +29,7 @@ mod sift;
 pub mod bench;
 
 pub use config::{DescriptorConfig, FrontEndConfig, LsdConfig, SiftConfig};
-pub use convert::{gray_from_rgb, load_gray};
+pub use convert::{decode_gray, gray_from_rgb, load_gray};
 pub use error::FeatureError;
 pub use extract::{
     ImageFeatures, describe_points_and_lines, extract, extract_batch, extract_per_call,

@@ -121,10 +121,18 @@ impl ScoreConfig {
     }
 }
 
-/// The RANSAC seed of one frame: the run's seed mixed with the frame id (SplitMix64's
-/// finaliser), so neighbouring frames get unrelated random streams.
-pub fn frame_seed(seed: u64, frame_id: u64) -> u64 {
-    let mut z = seed ^ frame_id.wrapping_mul(0x9E37_79B9_7F4A_7C15);
+/// The RANSAC seed of one image: the run's seed mixed with a hash of the image's name
+/// (FNV-1a, then SplitMix64's finaliser), so that neighbouring images get unrelated
+/// random streams and an image's pose depends neither on its position in a query list
+/// nor on which command localised it (`pl2map score` keys frames by id, `pl2map
+/// localize` by list position; both by name here).
+pub fn frame_seed(seed: u64, name: &str) -> u64 {
+    let mut h: u64 = 0xCBF2_9CE4_8422_2325;
+    for b in name.bytes() {
+        h ^= b as u64;
+        h = h.wrapping_mul(0x0000_0100_0000_01B3);
+    }
+    let mut z = seed ^ h.wrapping_mul(0x9E37_79B9_7F4A_7C15);
     z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
     z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
     z ^ (z >> 31)
@@ -241,7 +249,7 @@ fn run_variant(
 
 /// Localises one image from its correspondences: the reliability filters, then RANSAC
 /// with points only and with points + lines (side by side), seeded with [`frame_seed`] of the run's
-/// seed and `frame_id`. The one localisation step of both the score stage
+/// seed and the image's `name`. The one localisation step of both the score stage
 /// ([`score_frame`]) and `pl2map localize` ([`crate::localize`]); the variants carry
 /// no errors (no ground truth here). `timings` holds what came before; the filter and
 /// both pose estimations are added.
@@ -260,7 +268,7 @@ pub fn localize_frame(
         ms: t.elapsed().as_secs_f64() * 1e3,
     });
     let options = RansacOptions {
-        seed: frame_seed(config.ransac.seed, frame_id),
+        seed: frame_seed(config.ransac.seed, name),
         ..config.ransac.clone()
     };
     // Both variants side by side on the rayon pool: each is seeded alike and reads
@@ -481,8 +489,8 @@ mod tests {
 
     #[test]
     fn frame_seeds_differ_and_repeat() {
-        assert_eq!(frame_seed(0, 5), frame_seed(0, 5));
-        assert_ne!(frame_seed(0, 5), frame_seed(0, 6));
-        assert_ne!(frame_seed(0, 5), frame_seed(1, 5));
+        assert_eq!(frame_seed(0, "a/5.png"), frame_seed(0, "a/5.png"));
+        assert_ne!(frame_seed(0, "a/5.png"), frame_seed(0, "a/6.png"));
+        assert_ne!(frame_seed(0, "a/5.png"), frame_seed(1, "a/5.png"));
     }
 }

@@ -36,19 +36,15 @@ impl TestFrame {
         self.record.split
     }
 
-    /// Decodes the image file (PNG or JPEG, as stored) to 8-bit grey.
+    /// Decodes the image file (PNG or JPEG, as stored) to 8-bit grey exactly as OpenCV's
+    /// grey reader does (`features::decode_gray`), as the network was trained.
+    #[cfg(feature = "network")]
     pub fn gray_image(&self) -> Result<image::GrayImage, ScoreError> {
-        let format = match self.record.image_format {
-            shards::ImageFormat::Png => image::ImageFormat::Png,
-            shards::ImageFormat::Jpeg => image::ImageFormat::Jpeg,
-        };
-        image::load_from_memory_with_format(&self.record.image_bytes, format)
-            .map(|img| img.to_luma8())
-            .map_err(|e| ScoreError::Frame {
-                frame_id: self.frame_id(),
-                name: self.name().to_string(),
-                reason: format!("cannot decode the image: {e}"),
-            })
+        features::decode_gray(&self.record.image_bytes).map_err(|e| ScoreError::Frame {
+            frame_id: self.frame_id(),
+            name: self.name().to_string(),
+            reason: e.to_string(),
+        })
     }
 }
 

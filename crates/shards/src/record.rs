@@ -45,6 +45,16 @@ impl ImageFormat {
     }
 }
 
+impl From<tables::image_file::Encoding> for ImageFormat {
+    /// The format `tables::image_file::check_complete` found whole.
+    fn from(e: tables::image_file::Encoding) -> Self {
+        match e {
+            tables::image_file::Encoding::Png => ImageFormat::Png,
+            tables::image_file::Encoding::Jpeg => ImageFormat::Jpeg,
+        }
+    }
+}
+
 /// One frame of a shard: image file, camera, pose and its point and line labels.
 ///
 /// Points: `keypoints`, `point3d_ids`, `points3d` and `point_valid` have one entry per

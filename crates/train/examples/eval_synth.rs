@@ -161,7 +161,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             continue;
         }
         frames += 1;
-        let gray = image::load_from_memory(&frame.image_bytes)?.to_luma8();
+        let gray = train::sample::decode_gray(&frame)?;
         let depth = load_depth(root, &frame.name)?;
         let pred = match chunk {
             None => predictor.predict(&gray, &frame.camera)?,

@@ -32,7 +32,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut xyz: Vec<[f64; 3]> = Vec::new();
     for f in ShardReader::open(files("train-"))? {
         let f = f?;
-        let gray = image::load_from_memory(&f.image_bytes)?.to_luma8();
+        let gray = train::sample::decode_gray(&f)?;
         let pos: Vec<[f64; 2]> = (0..f.keypoints.len())
             .filter(|&i| f.point_valid[i])
             .map(|i| f.keypoints[i])
@@ -66,7 +66,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let step = (frames.len() / test_frames).max(1);
     for f in frames.iter().step_by(step).take(test_frames) {
         assert_eq!(f.split, Split::Test);
-        let gray = image::load_from_memory(&f.image_bytes)?.to_luma8();
+        let gray = train::sample::decode_gray(&f)?;
         let feats = fe.extract(&gray)?;
         let inv = f.pose.inverse();
         let depth = load_depth(root, &f.name)?;

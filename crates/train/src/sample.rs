@@ -15,7 +15,7 @@ use geometry::{Camera, Pose};
 use image::GrayImage;
 use rand::Rng;
 use serde::{Deserialize, Serialize};
-use shards::{FrameRecord, ImageFormat};
+use shards::FrameRecord;
 use std::sync::{Arc, RwLock};
 
 /// Per-sample limits (the rest is subsampled, seeded).
@@ -49,14 +49,10 @@ pub struct Prepared {
     pub pose: Pose,
 }
 
-/// Decodes a frame's image to 8-bit grey (ITU-R 601 luma, as `features::gray_from_rgb`).
+/// Decodes a frame's image to 8-bit grey exactly as OpenCV's grey reader does
+/// (`features::decode_gray`), as the reference implementation reads its images.
 pub fn decode_gray(frame: &FrameRecord) -> Result<GrayImage, TrainError> {
-    let format = match frame.image_format {
-        ImageFormat::Png => image::ImageFormat::Png,
-        ImageFormat::Jpeg => image::ImageFormat::Jpeg,
-    };
-    image::load_from_memory_with_format(&frame.image_bytes, format)
-        .map(|i| i.to_luma8())
+    features::decode_gray(&frame.image_bytes)
         .map_err(|e| frame_err(frame, format!("decoding the image: {e}")))
 }
 

@@ -73,6 +73,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     );
     crate::outln!();
     crate::out!("{}", b.table());
+    if let Some(line) = b.median_line() {
+        crate::outln!();
+        crate::outln!("{line}");
+    }
     if b.identical_poses != b.images {
         bail!("the query path's poses differ from the per-call path's");
     }

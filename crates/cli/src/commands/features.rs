@@ -122,11 +122,21 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .suffix(".h5.tmp")
         .tempfile_in(dir)
         .with_context(|| format!("creating a temporary file in {}", dir.display()))?;
+    // Images that cannot be read are left out and named; the others are written and
+    // the exit status is non-zero (as `pl2map localize` does).
+    let mut unreadable: Vec<String> = Vec::new();
     {
         let file = hdf5::File::create(tmp.path())
             .with_context(|| format!("creating {}", tmp.path().display()))?;
         for (name, path) in &images {
-            let gray = features::load_gray(path)?;
+            let gray = match read_gray(path) {
+                Ok(g) => g,
+                Err(reason) => {
+                    tracing::error!("{reason}");
+                    unreadable.push(reason);
+                    continue;
+                }
+            };
             let det = fe
                 .detect(&gray)
                 .with_context(|| format!("{}: front-end", path.display()))?;
@@ -180,7 +190,24 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         "{}: {} features of {} images",
         args.out.display(),
         args.front_end,
-        images.len()
+        images.len() - unreadable.len()
     );
+    if !unreadable.is_empty() {
+        bail!(
+            "{} of {} images could not be read and are not in {}:\n{}",
+            unreadable.len(),
+            images.len(),
+            args.out.display(),
+            unreadable.join("\n")
+        );
+    }
     Ok(())
+}
+
+/// An image file as grey, after the structural check ingest makes (a JPEG or PNG cut
+/// short is refused with the byte offset, not decoded with its missing part filled in).
+fn read_gray(path: &Path) -> Result<image::GrayImage, String> {
+    let bytes = std::fs::read(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    tables::image_file::check_complete(&bytes).map_err(|r| format!("{}: {r}", path.display()))?;
+    features::decode_gray(&bytes).map_err(|e| format!("{}: {e}", path.display()))
 }

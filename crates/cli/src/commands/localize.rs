@@ -34,7 +34,10 @@ pub struct Args {
     /// Output folder.
     #[arg(long)]
     pub out: PathBuf,
-    /// Poses from points + lines (on) or from points only (off).
+    /// The pose written to results.txt: from points + lines (on) or from points only
+    /// (off). The network sees the image's lines either way (they are part of its input,
+    /// as in training); `off` only leaves them out of RANSAC, as the score stage's
+    /// points variant does. per_image.csv has both poses' inliers.
     #[arg(long, value_enum, default_value_t = OnOff::On)]
     pub lines: OnOff,
     #[command(flatten)]
@@ -66,6 +69,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         bail!("no queries to localise");
     }
     let mut localiser = NetworkLocaliser::load_on(&args.checkpoint, args.config.device)?;
+    // The query lines from LIMAP-format segment files, as the score stage takes them:
+    // read (and refused) before any image, so a wrong folder never falls back to LSD.
+    if let Some(dir) = &args.config.query_segments {
+        let segments =
+            score::query_lines::QuerySegments::load(dir, args.config.query_segment_scale)
+                .with_context(|| format!("--query-segments {}", dir.display()))?;
+        localiser = localiser.with_query_segments(segments);
+    }
     let opts = LocalizeOptions {
         config: args.config.resolve(),
         lines: args.lines == OnOff::On,

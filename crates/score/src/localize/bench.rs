@@ -242,6 +242,14 @@ pub fn run(
 }
 
 impl LocalizeBench {
+    /// The summary line a script reads (the last line of `pl2map bench localize`): the
+    /// median milliseconds of one query alone on the most threads measured, e.g.
+    /// `median ms per query (2 threads): 87.3`.
+    pub fn median_line(&self) -> Option<String> {
+        let (n, ms) = self.latency_ms.iter().max_by_key(|(n, _)| *n)?;
+        Some(format!("median ms per query ({n} threads): {ms:.1}"))
+    }
+
     /// The table, markdown.
     pub fn table(&self) -> String {
         let mut s = String::from("| phase (1 thread) | median ms |\n|---|---:|\n");
@@ -253,5 +261,31 @@ impl LocalizeBench {
             s.push_str(&format!("| {n} | {lat:.1} | {qps:.2} |\n"));
         }
         s
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_median_line_is_the_most_threads_latency() {
+        let mut b = LocalizeBench {
+            images: 3,
+            mean_keypoints: 10.0,
+            mean_segments: 5.0,
+            phases: vec![("decode", 1.0)],
+            latency_ms: vec![(1, 150.25), (2, 87.34)],
+            throughput: vec![(1, 6.0), (2, 11.0)],
+            identical_poses: 3,
+            localised: 3,
+        };
+        assert_eq!(
+            b.median_line().unwrap(),
+            "median ms per query (2 threads): 87.3"
+        );
+        assert!(b.table().contains("| 2 | 87.3 | 11.00 |"));
+        b.latency_ms.clear();
+        assert_eq!(b.median_line(), None);
     }
 }

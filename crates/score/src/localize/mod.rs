@@ -5,7 +5,7 @@
 //!   (the network's front-ends side by side on the rayon pool, then the network frame
 //!   by frame), then [`crate::evaluate::localize_frame`] (reliability filters, RANSAC
 //!   with points and with points + lines) for every frame side by side. Each frame's
-//!   RANSAC is seeded from the run's seed and its id, so results do not depend on the
+//!   RANSAC is seeded from the run's seed and its image name, so results do not depend on the
 //!   thread count or on which frames share a batch. The score stage ([`crate::run()`])
 //!   adds the errors against the ground truth.
 //! - [`queries`]: hloc's query list with intrinsics, or a folder of images with one

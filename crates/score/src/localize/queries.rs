@@ -14,8 +14,8 @@ use std::path::{Path, PathBuf};
 /// One image to localise.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Query {
-    /// 0-based position among the queries: the RANSAC seed key
-    /// ([`crate::evaluate::frame_seed`]) and the `id` column of the table.
+    /// 0-based position among the queries: the `id` column of the table. (RANSAC is
+    /// seeded by the name, [`crate::evaluate::frame_seed`], not by this position.)
     pub id: u64,
     /// Path relative to the images folder, `/`-separated (the results file's key).
     pub name: String,
@@ -123,8 +123,11 @@ pub fn load_query(images: &Path, q: &Query) -> Result<TestFrame, String> {
     let camera = q.camera.clone()?;
     let path: PathBuf = images.join(&q.name);
     let bytes = std::fs::read(&path).map_err(|e| format!("{}: {e}", path.display()))?;
-    let format = ImageFormat::sniff(&bytes)
-        .ok_or_else(|| format!("{}: neither a PNG nor a JPEG file", path.display()))?;
+    // The structural check ingest makes: a file cut short is refused with the byte
+    // offset instead of being decoded with its missing part filled in.
+    let format: ImageFormat = tables::image_file::check_complete(&bytes)
+        .map_err(|reason| format!("{}: {reason}", path.display()))?
+        .into();
     Ok(TestFrame {
         record: FrameRecord::unlabelled(
             q.id,
