@@ -168,7 +168,10 @@ impl fmt::Display for Summary {
             "  segment files          {} ({} segments)",
             self.segment_files, self.segments
         )?;
-        writeln!(f, "  finaltracks            {}", self.finaltracks)?;
+        match self.layout {
+            Layout::Limap1 => writeln!(f, "  finaltracks            {}", self.finaltracks)?,
+            Layout::Limap2 => writeln!(f, "  lines3D.bin            {}", self.finaltracks)?,
+        }
         match self.alltracks {
             Some(n) if self.layout == Layout::Limap2 => {
                 writeln!(f, "  alltracks (derived)    {n}")?
