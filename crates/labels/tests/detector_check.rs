@@ -288,6 +288,42 @@ fn jittered_limap_segments_are_refused() {
     assert!(e.to_string().contains("another line detector"), "{e}");
 }
 
+/// LIMAP's LSD keeps segments of every length, the front-end drops those under its
+/// `lsd.min_length`: short LIMAP segments are counted apart, not as mismatches.
+#[test]
+fn short_limap_segments_are_left_out_of_the_rate() {
+    let f = fixture();
+    let out = tempfile::tempdir().unwrap();
+    // Every other segment cut to 8 px about its midpoint.
+    let limap = limap_with(f, out.path(), |_, lines| {
+        lines
+            .iter()
+            .enumerate()
+            .map(|(i, s)| {
+                if i % 2 == 1 {
+                    return *s;
+                }
+                let (mx, my) = ((s[0] + s[2]) / 2.0, (s[1] + s[3]) / 2.0);
+                let (dx, dy) = (s[2] - s[0], s[3] - s[1]);
+                let k = 4.0 / dx.hypot(dy);
+                [mx - k * dx, my - k * dy, mx + k * dx, my + k * dy]
+            })
+            .collect()
+    });
+    let done =
+        import::run(&config(f, Some(limap)), &f.frames, &out.path().join("out")).expect("import");
+    let c = done.output.report.detector_check.expect("the check ran");
+    println!("half the LIMAP segments cut to 8 px: {}", c.rates());
+    assert_eq!(c.decision, "passed");
+    assert_eq!(
+        c.min_segment_length_px,
+        features::LsdConfig::default().min_length + 2.0 * c.radius_px
+    );
+    assert!(c.segments_short > 0 && c.segments > 0, "{}", c.rates());
+    assert!(c.segment_rate > 0.99, "{}", c.rates());
+    assert!(c.rates().contains("shorter ones not compared"));
+}
+
 #[test]
 fn limap_segments_of_another_detector_are_refused() {
     let f = fixture();

@@ -311,9 +311,10 @@ fn refuses_segments_outside_the_image() {
 }
 
 #[test]
-fn segments_just_past_the_border_are_refused_naming_lsds_overshoot() {
+fn segments_just_past_the_border_import_by_default_and_name_lsds_overshoot_when_refused() {
     // LSD's endpoints overshoot the border by up to about 3 px (docs/formats.md): the
-    // message names the tolerance that imports them, not the segment scale.
+    // default tolerance imports them; a tighter one refuses them naming that tolerance,
+    // not the segment scale.
     let mut s = scene();
     let image = *s.segments.keys().next().unwrap();
     s.segments.get_mut(&image).unwrap().lines[0][0] = -2.5;
@@ -327,18 +328,24 @@ fn segments_just_past_the_border_are_refused_naming_lsds_overshoot() {
         }
     }
     s.write_limap();
-    let e = refuse(&s, &ImportConfig::default());
+    assert_eq!(ImportConfig::default().bounds_tolerance_px, 3.0);
+    import::run(
+        &s.with_inputs(&ImportConfig::default()),
+        &s.frames_path,
+        &s.out("tolerated"),
+    )
+    .unwrap();
+    let tight = ImportConfig {
+        bounds_tolerance_px: 1.0,
+        ..Default::default()
+    };
+    let e = refuse(&s, &tight);
     has(
         &e,
         "segments_outside_image",
         "the farthest endpoint 2.50 px past the border (LSD puts endpoints up to about 3 px \
          past the border: import with bounds_tolerance_px = 3 (--bounds-tolerance-px 3))",
     );
-    let config = ImportConfig {
-        bounds_tolerance_px: 3.0,
-        ..Default::default()
-    };
-    import::run(&s.with_inputs(&config), &s.frames_path, &s.out("tolerated")).unwrap();
 }
 
 #[test]

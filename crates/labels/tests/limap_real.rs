@@ -13,7 +13,7 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use datasets::ingest::{self, DatasetKind, IngestConfig};
-use labels::import::{self, DetectorCheck, ImportConfig, LineTrackSet};
+use labels::import::{self, ImportConfig, LineTrackSet};
 use limap::{Layout, LimapDir, LimapDirOptions, SegmentsOrigin};
 use serde_json::Value;
 use synth::{SynthConfig, WriteOptions, generate};
@@ -147,10 +147,11 @@ fn limap2_output_of_the_real_tools_reads_unconverted() {
     assert_eq!(cleaned.tracks, limap.tracks);
     assert_eq!(cleaned.alltracks, limap.alltracks);
 
-    // The import takes both folders as they are: every support labels one segment, every
-    // observation one keypoint. LSD's endpoints overshoot the border by up to ~3 px and
-    // LIMAP's LSD is not the front-end's (docs/formats.md section 2), hence the two
-    // settings; the rates are printed.
+    // The import takes both folders as they are, with its default settings (the bounds
+    // tolerance covers LSD's overshoot past the border, the detector check takes
+    // pycolmap's SIFT and LIMAP's LSD for the front-end's detectors; docs/formats.md
+    // section 2): every support labels one segment, every observation one keypoint. The
+    // rates are printed.
     let frames = ingest::run(
         &IngestConfig::new(DatasetKind::SevenScenes, &synth.root),
         &dir.path().join("frames"),
@@ -167,8 +168,6 @@ fn limap2_output_of_the_real_tools_reads_unconverted() {
             model: Some(out.join("colmap/sparse")),
             limap: Some(root.clone()),
             line_tracks: set,
-            bounds_tolerance_px: 3.0,
-            detector_check: DetectorCheck::Accept,
             ..ImportConfig::default()
         };
         let done = import::run(&config, &frames, &dir.path().join(set.as_str())).expect("import");
@@ -187,14 +186,13 @@ fn limap2_output_of_the_real_tools_reads_unconverted() {
             as_u64(&report["points3d"])
         );
         let d = r.detector_check.as_ref().unwrap();
+        assert_eq!(d.decision, "passed", "{}", d.rates());
         eprintln!(
-            "import ({}): {} line labels, {} point labels; detector check: keypoints {:.1} %, \
-             segments {:.1} %",
+            "import ({}): {} line labels, {} point labels; detector check: {}",
             set.as_str(),
             r.lines.valid,
             r.points.valid,
-            100.0 * d.keypoint_rate,
-            100.0 * d.segment_rate
+            d.rates()
         );
     }
 }

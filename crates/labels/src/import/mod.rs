@@ -83,7 +83,9 @@ pub struct ImportConfig {
     #[arg(long, default_value_t = ImportConfig::default().segment_scale)]
     pub segment_scale: f64,
     /// How far outside the image (pixels) a keypoint or segment endpoint may lie before
-    /// the input is refused (it would mean another resolution or camera).
+    /// the input is refused (it would mean another resolution or camera). 3 px by
+    /// default: LSD extrapolates segments past the border (LIMAP's pytlsd output of the
+    /// synthetic room reaches 2.7 px, docs/formats.md section 2).
     #[arg(long, default_value_t = ImportConfig::default().bounds_tolerance_px)]
     pub bounds_tolerance_px: f64,
     /// The LIMAP segments folder, relative to the LIMAP folder; default: the only one of
@@ -160,7 +162,7 @@ impl Default for ImportConfig {
             pose_source: PoseSource::Sfm,
             allow_test_images: false,
             segment_scale: 1.0,
-            bounds_tolerance_px: 1.0,
+            bounds_tolerance_px: problems::LSD_OVERSHOOT_PX,
             limap_segments: None,
             limap_tracks: None,
             line_tracks: LineTrackSet::Finaltracks,
