@@ -18,29 +18,7 @@ pub fn python(modules: &[&str]) -> Option<PathBuf> {
             return None;
         }
     };
-    let probe = if modules.is_empty() {
-        "import sys".to_string()
-    } else {
-        format!("import {}", modules.join(", "))
-    };
-    match Command::new(&python).args(["-c", &probe]).output() {
-        Ok(out) if out.status.success() => Some(python),
-        Ok(out) => {
-            // The last line of a traceback says what failed; the skip is one line.
-            let stderr = String::from_utf8_lossy(&out.stderr);
-            let why = stderr.lines().rev().find(|l| !l.trim().is_empty());
-            crate::skip(format_args!(
-                "{} cannot `{probe}`: {}",
-                python.display(),
-                why.unwrap_or("no error output").trim()
-            ));
-            None
-        }
-        Err(e) => {
-            crate::skip(format_args!("cannot run {}: {e}", python.display()));
-            None
-        }
-    }
+    probe(python, modules)
 }
 
 /// The interpreter of the LIMAP venv (pylimap 2.0 and pytlsd, in a venv of their own:
@@ -80,6 +58,7 @@ fn probe(python: PathBuf, modules: &[&str]) -> Option<PathBuf> {
     match Command::new(&python).args(["-c", &probe]).output() {
         Ok(out) if out.status.success() => Some(python),
         Ok(out) => {
+            // The last line of a traceback says what failed; the skip is one line.
             let stderr = String::from_utf8_lossy(&out.stderr);
             let why = stderr.lines().rev().find(|l| !l.trim().is_empty());
             crate::skip(format_args!(
