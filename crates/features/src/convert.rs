@@ -39,7 +39,7 @@ pub(crate) fn mat_view(img: &GrayImage) -> Result<BoxedRef<'_, Mat>, FeatureErro
 
 /// Decodes a PNG or JPEG file's bytes to 8-bit grey exactly as OpenCV's grey reader does
 /// (`cv::imdecode` / `cv::imread` with `IMREAD_GRAYSCALE`), the way the reference
-/// implementation and hloc read their images (docs/method.md section 1, "Grey images"):
+/// implementation and hloc read their images (docs/method.md section 2b, "Grey images"):
 /// for a JPEG, libjpeg's own luma channel; for a colour PNG, libpng's ITU-R BT.601
 /// conversion. The `image` crate's `to_luma8` weights the channels as BT.709 and differs
 /// on about half the pixels of a real colour frame, so no grey path of this project uses it.
