@@ -66,7 +66,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let step = (frames.len() / test_frames).max(1);
     for f in frames.iter().step_by(step).take(test_frames) {
         assert_eq!(f.split, Split::Test);
-        let gray = train::sample::decode_gray(&f)?;
+        let gray = train::sample::decode_gray(f)?;
         let feats = fe.extract(&gray)?;
         let inv = f.pose.inverse();
         let depth = load_depth(root, &f.name)?;
