@@ -133,10 +133,10 @@ fn camera_spec(c: &geometry::Camera) -> String {
     s
 }
 
-fn localize(list: &Path, images: &Path, out: &Path, threads: usize) -> Output {
-    pl2map()
-        .env("RAYON_NUM_THREADS", threads.to_string())
-        .arg("localize")
+/// `pl2map localize` of the scene's model over `list`, RANSAC capped; more flags may follow.
+fn localize_cmd(list: &Path, images: &Path, out: &Path) -> Command {
+    let mut c = pl2map();
+    c.arg("localize")
         .arg("--checkpoint")
         .arg(&scene().model)
         .arg("--queries")
@@ -145,7 +145,13 @@ fn localize(list: &Path, images: &Path, out: &Path, threads: usize) -> Output {
         .arg(images)
         .arg("--out")
         .arg(out)
-        .args(["--max-iterations", MAX_ITERATIONS])
+        .args(["--max-iterations", MAX_ITERATIONS]);
+    c
+}
+
+fn localize(list: &Path, images: &Path, out: &Path, threads: usize) -> Output {
+    localize_cmd(list, images, out)
+        .env("RAYON_NUM_THREADS", threads.to_string())
         .output()
         .unwrap()
 }
@@ -376,17 +382,8 @@ fn real_7scenes_queries_give_a_results_file_hloc_reads() {
     std::fs::write(&list_path, list).unwrap();
     let out = dir.path().join("out");
     let stdout = ok(
-        pl2map()
-            .arg("localize")
-            .arg("--checkpoint")
-            .arg(&s.model)
-            .arg("--queries")
-            .arg(&list_path)
-            .arg("--images")
-            .arg(&stairs)
-            .arg("--out")
-            .arg(&out)
-            .args(["--max-iterations", MAX_ITERATIONS, "--visual"])
+        localize_cmd(&list_path, &stairs, &out)
+            .arg("--visual")
             .output()
             .unwrap(),
         "localize (7-Scenes)",
@@ -552,17 +549,7 @@ fn query_segments_from_limap_files() {
     let list_path = dir.path().join("q.txt");
     std::fs::write(&list_path, query_list(test.iter().copied())).unwrap();
     let localize_with = |segments: &Path, out: &Path| {
-        pl2map()
-            .arg("localize")
-            .arg("--checkpoint")
-            .arg(&s.model)
-            .arg("--queries")
-            .arg(&list_path)
-            .arg("--images")
-            .arg(&s.scene)
-            .arg("--out")
-            .arg(out)
-            .args(["--max-iterations", MAX_ITERATIONS])
+        localize_cmd(&list_path, &s.scene, out)
             .arg("--query-segments")
             .arg(segments)
             .output()
