@@ -358,7 +358,6 @@ fn real_7scenes_queries_give_a_results_file_hloc_reads() {
     let Some(stairs) = testkit::sample::sample_data("7scenes-stairs-mini/stairs") else {
         return;
     };
-    let s = scene();
     // hloc's 7-Scenes query list: the test sequences, PINHOLE with the dataset's focal.
     let mut names = Vec::new();
     for seq in ["seq-01", "seq-04"] {
