@@ -236,15 +236,29 @@ impl<'a> Cursor<'a> {
         }
     }
 
-    fn track(&mut self) -> Res<Vec<(u32, u32)>> {
-        let n = self.count("track elements", 8)?;
+    /// A u64 count (checked as [`Self::count`]) followed by that many items, each read
+    /// by `item`.
+    fn list<T>(
+        &mut self,
+        what: &str,
+        min_each: usize,
+        mut item: impl FnMut(&mut Self) -> Res<T>,
+    ) -> Res<Vec<T>> {
+        let n = self.count(what, min_each)?;
         let mut out = Vec::with_capacity(n);
         for _ in 0..n {
-            let image = self.u32("image id of a track element")?;
-            let row = self.u32("line index of a track element")?;
-            out.push((image, row));
+            out.push(item(self)?);
         }
         Ok(out)
+    }
+
+    fn track(&mut self) -> Res<Vec<(u32, u32)>> {
+        self.list("track elements", 8, |c| {
+            Ok((
+                c.u32("image id of a track element")?,
+                c.u32("line index of a track element")?,
+            ))
+        })
     }
 
     fn finish(&mut self, what: &str) -> Res<()> {
@@ -280,51 +294,38 @@ pub fn parse_structures2d(bytes: &[u8]) -> Result<Vec<Structure2dRecord>, Binary
             return Err(c.err(at, format!("image {image_id} has a second record")));
         }
         let num_points = c.u32("number of keypoints")?;
-        let n_lines = c.count("2D lines", 48)?;
-        let mut lines = Vec::with_capacity(n_lines);
-        for _ in 0..n_lines {
-            let x1 = c.coord("x1")?;
-            let y1 = c.coord("y1")?;
-            let x2 = c.coord("x2")?;
-            let y2 = c.coord("y2")?;
-            let score = c.f64("score")?;
-            let line3d_id = c.u64("3D line id of a 2D line")?;
-            lines.push(Line2dRecord {
-                segment: [x1, y1, x2, y2],
-                score,
-                line3d_id,
-            });
-        }
-        let n_groups = c.count("2D groups", 4 + 8 + 8 + 8)?;
-        let mut groups = Vec::with_capacity(n_groups);
-        for _ in 0..n_groups {
-            let group_type = c.group_type()?;
-            let np = c.count("group points", 12)?;
-            let mut points = Vec::with_capacity(np);
-            for _ in 0..np {
-                points.push((c.u32("keypoint index")?, c.f64("weight")?));
-            }
-            let nl = c.count("group lines", 12)?;
-            let mut glines = Vec::with_capacity(nl);
-            for _ in 0..nl {
-                glines.push((c.u32("line index")?, c.f64("weight")?));
-            }
-            let group3d_id = c.u64("3D group id")?;
-            groups.push(Group2dRecord {
-                group_type,
-                points,
-                lines: glines,
-                group3d_id,
-            });
-        }
-        let n_edges = c.count("2D wireframe edges", 16)?;
-        let mut wireframe = Vec::with_capacity(n_edges);
-        for _ in 0..n_edges {
-            let p = c.u32("keypoint index")?;
-            let l = c.u32("line index")?;
-            let w = c.f64("weight")?;
-            wireframe.push((p, l, w));
-        }
+        let lines = c.list("2D lines", 48, |c| {
+            let segment = [
+                c.coord("x1")?,
+                c.coord("y1")?,
+                c.coord("x2")?,
+                c.coord("y2")?,
+            ];
+            Ok(Line2dRecord {
+                segment,
+                score: c.f64("score")?,
+                line3d_id: c.u64("3D line id of a 2D line")?,
+            })
+        })?;
+        let groups = c.list("2D groups", 4 + 8 + 8 + 8, |c| {
+            Ok(Group2dRecord {
+                group_type: c.group_type()?,
+                points: c.list("group points", 12, |c| {
+                    Ok((c.u32("keypoint index")?, c.f64("weight")?))
+                })?,
+                lines: c.list("group lines", 12, |c| {
+                    Ok((c.u32("line index")?, c.f64("weight")?))
+                })?,
+                group3d_id: c.u64("3D group id")?,
+            })
+        })?;
+        let wireframe = c.list("2D wireframe edges", 16, |c| {
+            Ok((
+                c.u32("keypoint index")?,
+                c.u32("line index")?,
+                c.f64("weight")?,
+            ))
+        })?;
         out.push(Structure2dRecord {
             image_id,
             num_points,
@@ -380,22 +381,14 @@ pub fn parse_groups3d(bytes: &[u8]) -> Result<Vec<Group3dRecord>, BinaryError> {
         let id = c.u64("3D group id")?;
         c.record = Some(format!("record {k} (3D group {id})"));
         let group_type = c.group_type()?;
-        let np = c.count("group points", 16)?;
-        let mut points = Vec::with_capacity(np);
-        for _ in 0..np {
-            points.push((c.u64("3D point id")?, c.f64("weight")?));
-        }
-        let nl = c.count("group lines", 16)?;
-        let mut lines = Vec::with_capacity(nl);
-        for _ in 0..nl {
-            lines.push((c.u64("3D line id")?, c.f64("weight")?));
-        }
+        let points = c.list("group points", 16, |c| {
+            Ok((c.u64("3D point id")?, c.f64("weight")?))
+        })?;
+        let lines = c.list("group lines", 16, |c| {
+            Ok((c.u64("3D line id")?, c.f64("weight")?))
+        })?;
         let track = c.track()?;
-        let nk = c.count("group parameters", 8)?;
-        let mut params = Vec::with_capacity(nk);
-        for _ in 0..nk {
-            params.push(c.f64("group parameter")?);
-        }
+        let params = c.list("group parameters", 8, |c| c.f64("group parameter"))?;
         out.push(Group3dRecord {
             id,
             group_type,
