@@ -252,6 +252,26 @@ impl<'a> Cursor<'a> {
         Ok(out)
     }
 
+    /// A whole file of records: a u64 count (checked as [`Self::count`]), then the
+    /// records, each read by `item` (given its index) with errors naming `record <k>`,
+    /// and nothing after the last (`what` names one record in that error).
+    fn records<T>(
+        &mut self,
+        plural: &str,
+        what: &str,
+        min_each: usize,
+        mut item: impl FnMut(&mut Self, usize) -> Res<T>,
+    ) -> Res<Vec<T>> {
+        let n = self.count(plural, min_each)?;
+        let mut out = Vec::with_capacity(n);
+        for k in 0..n {
+            self.record = Some(format!("record {k}"));
+            out.push(item(self, k)?);
+        }
+        self.finish(what)?;
+        Ok(out)
+    }
+
     fn track(&mut self) -> Res<Vec<(u32, u32)>> {
         self.list("track elements", 8, |c| {
             Ok((
@@ -281,12 +301,8 @@ impl<'a> Cursor<'a> {
 /// Parses `structures2d.bin`. Image ids must be distinct.
 pub fn parse_structures2d(bytes: &[u8]) -> Result<Vec<Structure2dRecord>, BinaryError> {
     let mut c = Cursor::new(bytes);
-    // image id, num_points, three counts.
-    let n = c.count("images", 4 + 4 + 3 * 8)?;
-    let mut out: Vec<Structure2dRecord> = Vec::with_capacity(n);
-    let mut seen = std::collections::HashSet::with_capacity(n);
-    for k in 0..n {
-        c.record = Some(format!("record {k}"));
+    let mut seen = std::collections::HashSet::new();
+    c.records("images", "image", 4 + 4 + 3 * 8, |c, k| {
         let at = c.pos;
         let image_id = c.u32("image id")?;
         c.record = Some(format!("record {k} (image {image_id})"));
@@ -326,26 +342,21 @@ pub fn parse_structures2d(bytes: &[u8]) -> Result<Vec<Structure2dRecord>, Binary
                 c.f64("weight")?,
             ))
         })?;
-        out.push(Structure2dRecord {
+        Ok(Structure2dRecord {
             image_id,
             num_points,
             lines,
             groups,
             wireframe,
-        });
-    }
-    c.finish("image")?;
-    Ok(out)
+        })
+    })
 }
 
 /// Parses `lines3D.bin`. Line ids must be distinct and endpoints finite.
 pub fn parse_lines3d(bytes: &[u8]) -> Result<Vec<Line3dRecord>, BinaryError> {
     let mut c = Cursor::new(bytes);
-    let n = c.count("3D lines", 8 + 48 + 8 + 8)?;
-    let mut out = Vec::with_capacity(n);
-    let mut seen = std::collections::HashSet::with_capacity(n);
-    for k in 0..n {
-        c.record = Some(format!("record {k}"));
+    let mut seen = std::collections::HashSet::new();
+    c.records("3D lines", "3D line", 8 + 48 + 8 + 8, |c, k| {
         let at = c.pos;
         let id = c.u64("3D line id")?;
         c.record = Some(format!("record {k} (3D line {id})"));
@@ -360,24 +371,19 @@ pub fn parse_lines3d(bytes: &[u8]) -> Result<Vec<Line3dRecord>, BinaryError> {
         }
         let track = c.track()?;
         let uncertainty = c.f64("uncertainty")?;
-        out.push(Line3dRecord {
+        Ok(Line3dRecord {
             id,
             line,
             track,
             uncertainty,
-        });
-    }
-    c.finish("3D line")?;
-    Ok(out)
+        })
+    })
 }
 
 /// Parses `groups3D.bin`.
 pub fn parse_groups3d(bytes: &[u8]) -> Result<Vec<Group3dRecord>, BinaryError> {
     let mut c = Cursor::new(bytes);
-    let n = c.count("3D groups", 8 + 4 + 4 * 8)?;
-    let mut out = Vec::with_capacity(n);
-    for k in 0..n {
-        c.record = Some(format!("record {k}"));
+    c.records("3D groups", "3D group", 8 + 4 + 4 * 8, |c, k| {
         let id = c.u64("3D group id")?;
         c.record = Some(format!("record {k} (3D group {id})"));
         let group_type = c.group_type()?;
@@ -389,34 +395,27 @@ pub fn parse_groups3d(bytes: &[u8]) -> Result<Vec<Group3dRecord>, BinaryError> {
         })?;
         let track = c.track()?;
         let params = c.list("group parameters", 8, |c| c.f64("group parameter"))?;
-        out.push(Group3dRecord {
+        Ok(Group3dRecord {
             id,
             group_type,
             points,
             lines,
             track,
             params,
-        });
-    }
-    c.finish("3D group")?;
-    Ok(out)
+        })
+    })
 }
 
 /// Parses `wireframe3D.bin`.
 pub fn parse_wireframe3d(bytes: &[u8]) -> Result<Vec<WireframeEdge>, BinaryError> {
     let mut c = Cursor::new(bytes);
-    let n = c.count("wireframe edges", 24)?;
-    let mut out = Vec::with_capacity(n);
-    for k in 0..n {
-        c.record = Some(format!("record {k}"));
-        out.push(WireframeEdge {
+    c.records("wireframe edges", "wireframe edge", 24, |c, _| {
+        Ok(WireframeEdge {
             point3d_id: c.u64("3D point id")?,
             line3d_id: c.u64("3D line id")?,
             weight: c.f64("weight")?,
-        });
-    }
-    c.finish("wireframe edge")?;
-    Ok(out)
+        })
+    })
 }
 
 fn put_u32(b: &mut Vec<u8>, v: u32) {
