@@ -16,7 +16,7 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, OnceLock};
-use synth::{SynthConfig, WriteOptions, generate};
+use synth::generate_tiny;
 use tables::frames::FramesTable;
 
 /// The tiny synthetic scene, rendered and ingested once per test binary.
@@ -35,17 +35,7 @@ fn fixture() -> &'static Fixture {
             .prefix("labels-detector-check-")
             .tempdir_in(env!("CARGO_TARGET_TMPDIR"))
             .unwrap();
-        let synth = generate(
-            &SynthConfig {
-                tiny: true,
-                ..SynthConfig::default()
-            },
-            &WriteOptions {
-                progress: false,
-                ..WriteOptions::new(dir.path().join("data"))
-            },
-        )
-        .expect("synth");
+        let synth = generate_tiny(&dir.path().join("data")).expect("synth");
         let ic = IngestConfig::new(DatasetKind::SevenScenes, &synth.root);
         let frames = ingest::run(&ic, &dir.path().join("frames"))
             .expect("ingest")

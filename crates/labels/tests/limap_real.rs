@@ -16,7 +16,7 @@ use datasets::ingest::{self, DatasetKind, IngestConfig};
 use labels::import::{self, ImportConfig, LineTrackSet};
 use limap::{Layout, LimapDir, LimapDirOptions, SegmentsOrigin};
 use serde_json::Value;
-use synth::{SynthConfig, WriteOptions, generate};
+use synth::generate_tiny;
 
 fn script() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scripts/limap-tiny.py")
@@ -35,17 +35,7 @@ fn limap2_output_of_the_real_tools_reads_unconverted() {
         .prefix("labels-limap-real-")
         .tempdir_in(env!("CARGO_TARGET_TMPDIR"))
         .unwrap();
-    let synth = generate(
-        &SynthConfig {
-            tiny: true,
-            ..SynthConfig::default()
-        },
-        &WriteOptions {
-            progress: false,
-            ..WriteOptions::new(dir.path().join("data"))
-        },
-    )
-    .expect("synth");
+    let synth = generate_tiny(&dir.path().join("data")).expect("synth");
     let out = dir.path().join("tools");
     let started = std::time::Instant::now();
     testkit::python::run(

@@ -9,22 +9,12 @@ use score::run::{PER_FRAME_FILE, PLOT_FILE, SUMMARY_JSON_FILE, SUMMARY_MD_FILE, 
 use score::{OracleLocaliser, ScoreConfig, ScoreError, Variant};
 use shards::shard_stage::{self, ShardStageConfig};
 use std::path::{Path, PathBuf};
-use synth::{SynthConfig, WriteOptions, generate};
+use synth::generate_tiny;
 use tables::parquet::polars::prelude::*;
 
 /// synth -> ingest -> import -> shard; returns the shard folder.
 fn prepare(root: &Path) -> PathBuf {
-    let synth = generate(
-        &SynthConfig {
-            tiny: true,
-            ..SynthConfig::default()
-        },
-        &WriteOptions {
-            progress: false,
-            ..WriteOptions::new(root.join("data"))
-        },
-    )
-    .expect("synth");
+    let synth = generate_tiny(&root.join("data")).expect("synth");
     let scene = synth.root.clone();
     let mut ic = IngestConfig::new(DatasetKind::SevenScenes, &scene);
     ic.depth = DepthOption::Rendered(scene.clone());

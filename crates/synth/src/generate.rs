@@ -241,6 +241,22 @@ pub struct SynthOutput {
     pub ground_truth: Option<gt::GtSummary>,
 }
 
+/// The tiny scene (default seed, with its ground truth) written to `out/<name>` without
+/// a progress bar: what `pl2map synth OUT --tiny --quiet` writes, and the fixture of the
+/// stages' tests.
+pub fn generate_tiny(out: &std::path::Path) -> Result<SynthOutput> {
+    generate(
+        &SynthConfig {
+            tiny: true,
+            ..SynthConfig::default()
+        },
+        &WriteOptions {
+            progress: false,
+            ..WriteOptions::new(out)
+        },
+    )
+}
+
 /// Builds, renders and writes the synthetic dataset. Same config (seed included) =>
 /// byte-identical files, whatever the number of rayon threads.
 pub fn generate(cfg: &SynthConfig, write: &WriteOptions) -> Result<SynthOutput> {

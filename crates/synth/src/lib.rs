@@ -29,6 +29,7 @@ pub mod trajectory;
 pub use error::{Result, SynthError};
 pub use generate::{
     FrameInfo, SynthConfig, SynthDataset, SynthOutput, WriteOptions, color_name, generate,
+    generate_tiny,
 };
 pub use layout::Layout;
 pub use preview::contact_sheet;
