@@ -26,10 +26,35 @@ impl Default for SiftConfig {
     }
 }
 
+/// Which SIFT descriptor the SIFT front-end computes.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum DescriptorMethod {
+    /// Read from one dense map of pooled orientation channels per image (`dense.rs`):
+    /// about 1 us per descriptor after a map of a few ms.
+    #[default]
+    Dense,
+    /// OpenCV's SIFT descriptor at each keypoint (about 0.1 ms each at size 12): the
+    /// descriptor of checkpoints written before `method` existed (checkpoint format 1).
+    Opencv,
+}
+
+impl DescriptorMethod {
+    pub fn name(self) -> &'static str {
+        match self {
+            DescriptorMethod::Dense => "dense",
+            DescriptorMethod::Opencv => "opencv",
+        }
+    }
+}
+
 /// How a descriptor is computed at a given position.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct DescriptorConfig {
+    /// `dense` (the default) or `opencv`. A map is queried with the method it was
+    /// trained with: the checkpoint records it.
+    pub method: DescriptorMethod,
     /// SIFT keypoint "size" (diameter in pixels) used for every descriptor: one fixed
     /// scale, so that training positions (no scale known) and query detections are
     /// described alike.
@@ -41,8 +66,31 @@ pub struct DescriptorConfig {
 impl Default for DescriptorConfig {
     fn default() -> Self {
         DescriptorConfig {
+            method: DescriptorMethod::Dense,
             point_size: 12.0,
             line_size: 12.0,
+        }
+    }
+}
+
+/// Which LSD the front-end runs.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum LsdImplementation {
+    /// The `lsd` crate with pytlsd's settings: the segments LIMAP detects (it calls
+    /// `pytlsd.lsd(grey)`), so that a query sees the lines its map was trained on.
+    #[default]
+    Pytlsd,
+    /// OpenCV's `createLineSegmentDetector` with refinement: the detector of
+    /// checkpoints written before `implementation` existed (checkpoint format 1).
+    Opencv,
+}
+
+impl LsdImplementation {
+    pub fn name(self) -> &'static str {
+        match self {
+            LsdImplementation::Pytlsd => "pytlsd",
+            LsdImplementation::Opencv => "opencv",
         }
     }
 }
@@ -51,6 +99,9 @@ impl Default for DescriptorConfig {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct LsdConfig {
+    /// `pytlsd` (the default, LIMAP's LSD) or `opencv`. A map is queried with the
+    /// detector it was trained with: the checkpoint records it.
+    pub implementation: LsdImplementation,
     /// Segments shorter than this (pixels) are dropped.
     pub min_length: f64,
     /// Keep the longest N segments.
@@ -60,6 +111,7 @@ pub struct LsdConfig {
 impl Default for LsdConfig {
     fn default() -> Self {
         LsdConfig {
+            implementation: LsdImplementation::Pytlsd,
             min_length: 15.0,
             max_lines: 3000,
         }

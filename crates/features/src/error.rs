@@ -18,6 +18,8 @@ pub enum FeatureError {
     ImageSize { width: u32, height: u32 },
     #[error("OpenCV returned {got} descriptors for {expected} positions")]
     DescriptorCount { expected: usize, got: usize },
+    #[error("LSD: {0}")]
+    Lsd(String),
     #[error("invalid front-end configuration: {0}")]
     Config(String),
     /// A front-end outside this crate (SuperPoint's network) failed.

@@ -1,6 +1,7 @@
 //! Everything the network needs from one image, and the parallel batch driver.
 
-use crate::config::FrontEndConfig;
+use crate::config::{DescriptorMethod, FrontEndConfig};
+use crate::dense::OrientedGradients;
 use crate::error::FeatureError;
 use crate::{SIFT_DIM, describe_lines, describe_points, detect_keypoints, detect_segments};
 use image::GrayImage;
@@ -72,14 +73,21 @@ impl ImageFeatures {
 /// `extract_equals_the_per_call_path` checks it).
 pub fn extract(img: &GrayImage, cfg: &FrontEndConfig) -> Result<ImageFeatures, FeatureError> {
     cfg.validate()?;
-    let (kps, segments) = rayon::join(
-        || detect_keypoints(img, &cfg.sift),
-        || detect_segments(img, &cfg.lsd),
+    // The dense map's gradients need neither detection: they are built beside them.
+    let dense = cfg.descriptor.method == DescriptorMethod::Dense;
+    let ((kps, segments), gradients) = rayon::join(
+        || {
+            rayon::join(
+                || detect_keypoints(img, &cfg.sift),
+                || detect_segments(img, &cfg.lsd),
+            )
+        },
+        || dense.then(|| OrientedGradients::new(img)),
     );
     let keypoints: Vec<[f64; 2]> = kps?.into_iter().map(|k| k.xy).collect();
     let segments = segments?;
     let (descriptors, line_descriptors) =
-        describe_points_and_lines(img, &keypoints, &segments, cfg)?;
+        describe_with(img, gradients.as_ref(), &keypoints, &segments, cfg)?;
     Ok(ImageFeatures {
         keypoints,
         descriptors,
@@ -100,13 +108,24 @@ pub fn describe_points_and_lines(
     segments: &[[f64; 4]],
     cfg: &FrontEndConfig,
 ) -> Result<(Vec<f32>, Vec<f32>), FeatureError> {
+    describe_with(img, None, keypoints, segments, cfg)
+}
+
+fn describe_with(
+    img: &GrayImage,
+    gradients: Option<&OrientedGradients>,
+    keypoints: &[[f64; 2]],
+    segments: &[[f64; 4]],
+    cfg: &FrontEndConfig,
+) -> Result<(Vec<f32>, Vec<f32>), FeatureError> {
     let mut all = crate::sift::point_keypoints(keypoints, &cfg.descriptor);
     all.extend(crate::lines::line_keypoints(
         segments,
         cfg.samples_per_line,
         &cfg.descriptor,
     ));
-    let mut descriptors = crate::sift::describe_all(img, &all, &cfg.sift)?;
+    let mut descriptors =
+        crate::sift::describe_specs(img, gradients, &all, &cfg.sift, &cfg.descriptor)?;
     let line_descriptors = descriptors.split_off(keypoints.len() * SIFT_DIM);
     Ok((descriptors, line_descriptors))
 }

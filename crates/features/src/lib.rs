@@ -18,6 +18,7 @@
 
 mod config;
 mod convert;
+mod dense;
 mod error;
 mod extract;
 mod frontend;
@@ -28,8 +29,11 @@ mod sift;
 
 pub mod bench;
 
-pub use config::{DescriptorConfig, FrontEndConfig, LsdConfig, SiftConfig};
+pub use config::{
+    DescriptorConfig, DescriptorMethod, FrontEndConfig, LsdConfig, LsdImplementation, SiftConfig,
+};
 pub use convert::{decode_gray, gray_from_rgb, load_gray};
+pub use dense::{DenseMap, OrientedGradients};
 pub use error::FeatureError;
 pub use extract::{
     ImageFeatures, describe_points_and_lines, extract, extract_batch, extract_per_call,

@@ -2,7 +2,7 @@
 
 use crate::config::{DescriptorConfig, SiftConfig};
 use crate::error::FeatureError;
-use crate::sift::{KeySpec, describe_keypoints, to_cv_keypoints};
+use crate::sift::KeySpec;
 use image::GrayImage;
 
 /// `t` points evenly spaced along a segment, endpoints included
@@ -33,8 +33,13 @@ pub fn describe_lines(
     sift_cfg: &SiftConfig,
     desc_cfg: &DescriptorConfig,
 ) -> Result<Vec<f32>, FeatureError> {
-    let kps = to_cv_keypoints(&line_keypoints(segments, t, desc_cfg))?;
-    describe_keypoints(img, kps, sift_cfg)
+    crate::sift::describe_specs(
+        img,
+        None,
+        &line_keypoints(segments, t, desc_cfg),
+        sift_cfg,
+        desc_cfg,
+    )
 }
 
 /// The OpenCV keypoints [`describe_lines`] describes: `t` per segment, in segment

@@ -1,8 +1,9 @@
 //! SIFT keypoints and descriptors through OpenCV.
 
 use crate::SIFT_DIM;
-use crate::config::{DescriptorConfig, SiftConfig};
+use crate::config::{DescriptorConfig, DescriptorMethod, SiftConfig};
 use crate::convert::{from_cv, mat_view, to_cv};
+use crate::dense::OrientedGradients;
 use crate::error::{CvContext, FeatureError};
 use image::GrayImage;
 use opencv::core::{
@@ -152,11 +153,71 @@ pub fn describe_points(
     sift_cfg: &SiftConfig,
     desc_cfg: &DescriptorConfig,
 ) -> Result<Vec<f32>, FeatureError> {
-    describe_keypoints(
+    describe_specs(
         img,
-        to_cv_keypoints(&point_keypoints(positions, desc_cfg))?,
+        None,
+        &point_keypoints(positions, desc_cfg),
         sift_cfg,
+        desc_cfg,
     )
+}
+
+/// Descriptors of `specs` by the configured method: OpenCV's ([`describe_all`]) or the
+/// dense map's (`dense.rs`), built from `gradients` when the caller already has them.
+pub(crate) fn describe_specs(
+    img: &GrayImage,
+    gradients: Option<&OrientedGradients>,
+    specs: &[KeySpec],
+    sift_cfg: &SiftConfig,
+    desc_cfg: &DescriptorConfig,
+) -> Result<Vec<f32>, FeatureError> {
+    match desc_cfg.method {
+        DescriptorMethod::Opencv => describe_all(img, specs, sift_cfg),
+        DescriptorMethod::Dense => {
+            if specs.is_empty() {
+                return Ok(Vec::new());
+            }
+            let own;
+            let gradients = match gradients {
+                Some(g) => g,
+                None => {
+                    own = OrientedGradients::new(img);
+                    &own
+                }
+            };
+            Ok(describe_dense(gradients, specs))
+        }
+    }
+}
+
+/// Dense-map descriptors of `specs`, one pooled map per distinct size; rows in input
+/// order, computed in chunks side by side (a row depends on its map and spec alone).
+fn describe_dense(gradients: &OrientedGradients, specs: &[KeySpec]) -> Vec<f32> {
+    use rayon::prelude::*;
+    let mut maps: Vec<(u32, crate::dense::DenseMap)> = Vec::new();
+    for s in specs {
+        if !maps.iter().any(|(b, _)| *b == s.size.to_bits()) {
+            maps.push((s.size.to_bits(), gradients.pool(s.size)));
+        }
+    }
+    const CHUNK: usize = 256;
+    let mut out = vec![0f32; specs.len() * SIFT_DIM];
+    out.par_chunks_mut(CHUNK * SIFT_DIM)
+        .zip(specs.par_chunks(CHUNK))
+        .for_each(|(rows, specs)| {
+            for (row, s) in rows.chunks_exact_mut(SIFT_DIM).zip(specs) {
+                if !(s.xy.iter().all(|v| v.is_finite()) && s.angle.is_finite()) {
+                    continue;
+                }
+                let map = &maps
+                    .iter()
+                    .find(|(b, _)| *b == s.size.to_bits())
+                    .expect("a map per size")
+                    .1;
+                map.describe(s.xy, s.angle, row);
+            }
+        });
+    out
 }
 
 /// A keypoint to describe, before it becomes an OpenCV `KeyPoint` (which is not

@@ -217,6 +217,12 @@ fn cosine(a: &[f32], b: &[f32]) -> f32 {
 /// descriptors: they are oriented along the segment.
 #[test]
 fn line_descriptors_follow_the_segment_orientation() {
+    for method in [DescriptorMethod::Dense, DescriptorMethod::Opencv] {
+        line_descriptors_follow_the_segment_orientation_with(method);
+    }
+}
+
+fn line_descriptors_follow_the_segment_orientation_with(method: DescriptorMethod) {
     let img = textured(240, 240, 11);
     let (w, h) = img.dimensions();
     // Rotate 90 deg clockwise: pixel (x, y) -> (h - 1 - y, x); in COLMAP coordinates
@@ -227,7 +233,8 @@ fn line_descriptors_follow_the_segment_orientation() {
     let a = map(seg[0], seg[1]);
     let b = map(seg[2], seg[3]);
     let seg_rot = [a[0], a[1], b[0], b[1]];
-    let cfg = FrontEndConfig::default();
+    let mut cfg = FrontEndConfig::default();
+    cfg.descriptor.method = method;
     let d0 = describe_lines(&img, &[seg], 12, &cfg.sift, &cfg.descriptor).unwrap();
     let d1 = describe_lines(&rot, &[seg_rot], 12, &cfg.sift, &cfg.descriptor).unwrap();
     for i in 0..12 {
@@ -235,7 +242,7 @@ fn line_descriptors_follow_the_segment_orientation() {
             &d0[i * SIFT_DIM..(i + 1) * SIFT_DIM],
             &d1[i * SIFT_DIM..(i + 1) * SIFT_DIM],
         );
-        assert!(c > 0.97, "sample {i}: cosine {c}");
+        assert!(c > 0.97, "{method:?} sample {i}: cosine {c}");
     }
     // Control: upright point descriptors do change under the rotation.
     let p = sample_points(&seg, 12)[5];
@@ -284,8 +291,16 @@ fn extract_equals_the_per_call_path() {
         let dir = real;
         images.push(load_gray(&dir.join("frame-000000.color.jpg")).unwrap());
     }
-    let cfg = FrontEndConfig::query();
-    for img in &images {
+    for method in [DescriptorMethod::Dense, DescriptorMethod::Opencv] {
+        let mut cfg = FrontEndConfig::query();
+        cfg.descriptor.method = method;
+        extract_equals_the_per_call_path_with(&images, &cfg);
+    }
+}
+
+fn extract_equals_the_per_call_path_with(images: &[GrayImage], cfg: &FrontEndConfig) {
+    for img in images {
+        let cfg = cfg.clone();
         let reference = extract_per_call(img, &cfg).unwrap();
         assert!(reference.num_keypoints() > 0 && reference.num_segments() > 0);
         for threads in [1, 2, 3] {
@@ -299,5 +314,43 @@ fn extract_equals_the_per_call_path() {
                 bits(&reference.line_descriptors)
             );
         }
+    }
+}
+
+/// The dense map's descriptor is SIFT's up to its approximations (`dense.rs`): at the
+/// same positions, sizes and angles it points the same way as OpenCV's, and a position
+/// is its own nearest neighbour among the others of the image under either method.
+#[test]
+fn dense_descriptors_approximate_opencv_sift() {
+    let mut images = vec![textured(640, 480, 21)];
+    let real = testkit::sample::root().join("7scenes-stairs-mini/stairs/seq-01");
+    if real.is_dir() {
+        images.push(load_gray(&real.join("frame-000000.color.jpg")).unwrap());
+    } else {
+        eprintln!("skipping the real frame: {} is absent", real.display());
+    }
+    for img in &images {
+        let mut cfg = FrontEndConfig::query();
+        let f = extract(img, &cfg).unwrap();
+        cfg.descriptor.method = DescriptorMethod::Opencv;
+        let cv = describe_points(img, &f.keypoints, &cfg.sift, &cfg.descriptor).unwrap();
+        let cv_lines = describe_lines(img, &f.segments, 12, &cfg.sift, &cfg.descriptor).unwrap();
+        let median_cos = |a: &[f32], b: &[f32]| {
+            let mut c: Vec<f32> = a
+                .chunks_exact(SIFT_DIM)
+                .zip(b.chunks_exact(SIFT_DIM))
+                .map(|(x, y)| cosine(x, y))
+                .collect();
+            c.sort_by(|x, y| x.total_cmp(y));
+            c[c.len() / 2]
+        };
+        let points = median_cos(&f.descriptors, &cv);
+        let lines = median_cos(&f.line_descriptors, &cv_lines);
+        eprintln!(
+            "{}x{}: median cosine dense vs OpenCV: points {points:.3}, line samples {lines:.3}",
+            img.width(),
+            img.height()
+        );
+        assert!(points > 0.98 && lines > 0.98, "{points} {lines}");
     }
 }

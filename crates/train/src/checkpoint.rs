@@ -26,7 +26,11 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 
 const MAGIC: &[u8; 8] = b"PL2MAPCK";
-pub const FORMAT_VERSION: u32 = 1;
+/// 2: the front-end configuration records `descriptor.method` and
+/// `lsd.implementation`. Format 1 files were all written with OpenCV's SIFT descriptor
+/// and OpenCV's LSD and are read as such.
+pub const FORMAT_VERSION: u32 = 2;
+const OPENCV_DESCRIPTOR_VERSION: u32 = 1;
 
 /// File names inside a training output folder.
 pub const CHECKPOINT_FILE: &str = "checkpoint.ckpt";
@@ -190,10 +194,12 @@ impl CheckpointFile {
             return Err(ck_err(path, "not a pl2map checkpoint (bad magic)"));
         }
         let version = u32::from_le_bytes(bytes[8..12].try_into().unwrap_or_default());
-        if version != FORMAT_VERSION {
+        if version != FORMAT_VERSION && version != OPENCV_DESCRIPTOR_VERSION {
             return Err(ck_err(
                 path,
-                format!("format version {version}, this build reads {FORMAT_VERSION}"),
+                format!(
+                    "format version {version}, this build reads {OPENCV_DESCRIPTOR_VERSION} and {FORMAT_VERSION}"
+                ),
             ));
         }
         let mut at = 12usize;
@@ -222,8 +228,12 @@ impl CheckpointFile {
         if at != bytes.len() {
             return Err(ck_err(path, format!("{} trailing bytes", bytes.len() - at)));
         }
-        let header: CheckpointHeader =
+        let mut header: CheckpointHeader =
             serde_json::from_slice(&json).map_err(|e| ck_err(path, format!("header: {e}")))?;
+        if version == OPENCV_DESCRIPTOR_VERSION {
+            header.config.front_end.descriptor.method = features::DescriptorMethod::Opencv;
+            header.config.front_end.lsd.implementation = features::LsdImplementation::Opencv;
+        }
         header
             .config
             .validate()
@@ -324,5 +334,64 @@ mod tests {
         std::fs::write(&path, &bad).unwrap();
         let e = CheckpointFile::read(&path).err().unwrap().to_string();
         assert!(e.contains("checksum"), "{e}");
+    }
+
+    /// A format-1 file (written before `descriptor.method` existed, its JSON without the
+    /// key) was trained on OpenCV's descriptors and is read as such; format 2 records the
+    /// method; other versions are refused by number.
+    #[test]
+    fn format_1_checkpoints_keep_opencv_descriptors_and_lsd() {
+        let dir = tempfile::tempdir().unwrap();
+        let cfg = tiny();
+        assert_eq!(
+            cfg.front_end.descriptor.method,
+            features::DescriptorMethod::Dense
+        );
+        let net = cfg.model.init::<AD>(3, &Default::default()).unwrap();
+        let path = dir.path().join("old.ckpt");
+        let header = CheckpointHeader {
+            tool_version: "test".into(),
+            config: cfg,
+            iteration: 1,
+            has_optimizer: false,
+            scene_centre: [0.0; 3],
+            weights_hash: String::new(),
+            optimizer_hash: String::new(),
+        };
+        save(&path, &header, &net, None).unwrap();
+        let new = CheckpointFile::read(&path).unwrap();
+        assert_eq!(
+            new.header.config.front_end.descriptor.method,
+            features::DescriptorMethod::Dense
+        );
+        // Rewrite it as format 1 wrote it: version 1, no `method` key in the header.
+        let bytes = std::fs::read(&path).unwrap();
+        let json_len = u64::from_le_bytes(bytes[12..20].try_into().unwrap()) as usize;
+        let json = std::str::from_utf8(&bytes[20..20 + json_len]).unwrap();
+        assert!(json.contains(r#""method":"dense","#));
+        assert!(json.contains(r#""implementation":"pytlsd","#));
+        let old_json = json
+            .replace(r#""method":"dense","#, "")
+            .replace(r#""implementation":"pytlsd","#, "");
+        let mut old = Vec::new();
+        old.extend_from_slice(MAGIC);
+        old.extend_from_slice(&1u32.to_le_bytes());
+        old.extend_from_slice(&(old_json.len() as u64).to_le_bytes());
+        old.extend_from_slice(old_json.as_bytes());
+        old.extend_from_slice(&bytes[20 + json_len..]);
+        std::fs::write(&path, &old).unwrap();
+        let back = CheckpointFile::read(&path).unwrap();
+        assert_eq!(
+            back.header.config.front_end.descriptor.method,
+            features::DescriptorMethod::Opencv
+        );
+        assert_eq!(
+            back.header.config.front_end.lsd.implementation,
+            features::LsdImplementation::Opencv
+        );
+        old[8..12].copy_from_slice(&7u32.to_le_bytes());
+        std::fs::write(&path, &old).unwrap();
+        let e = CheckpointFile::read(&path).err().unwrap().to_string();
+        assert!(e.contains("format version 7"), "{e}");
     }
 }
