@@ -1,13 +1,15 @@
 #!/usr/bin/env python3
 """Runs the real SfM tools on a synthetic scene with known poses and writes their outputs.
 
-Usage: limap-tiny.py SCENE OUT   (run with the LIMAP venv's python, scripts/setup-python.sh)
+Usage: limap-tiny.py [--pairs-from-poses N] SCENE OUT
+       (run with the LIMAP venv's python, scripts/setup-python.sh)
 
 SCENE is a scene folder of `pl2map synth OUT --tiny` (or without --tiny): its
 `sfm_gt/colmap/` model gives the training images, cameras and known poses (its points are
 not used). OUT receives:
 
-  colmap/database.db, colmap/sparse/   pycolmap SIFT extraction, exhaustive matching and
+  colmap/database.db, colmap/sparse/   pycolmap SIFT extraction, exhaustive matching (or
+                                       --pairs-from-poses N: pairs.txt) and
                                        point triangulation with the known poses;
   limap/                               LIMAP 2.0's output folder: final_model/ (the point
                                        model and structures/*.bin), frontend/ (the LSD
@@ -26,6 +28,7 @@ triangulation pairing each line with every line of the neighbouring images.
 
 import argparse
 import json
+import math
 import shutil
 import sys
 import time
@@ -70,7 +73,29 @@ def write_database(recon: pycolmap.Reconstruction, path: Path):
             db.write_image(recon.images[image_id], use_image_id=True)
 
 
-def point_triangulation(scene: Path, known: pycolmap.Reconstruction, out: Path, times):
+def nearest_pairs(known: pycolmap.Reconstruction, n: int, max_angle_deg: float = 30.0):
+    """Like hloc's pairs_from_poses: each image with its n nearest camera centres among
+    the images whose viewing direction is within max_angle_deg; unordered pairs, sorted."""
+    ids = sorted(known.images)
+    centres = {i: known.images[i].projection_center() for i in ids}
+    axes = {i: known.images[i].viewing_direction() for i in ids}
+    cos_max = math.cos(math.radians(max_angle_deg))
+    pairs = set()
+    for i in ids:
+        near = sorted(
+            (float(((centres[i] - centres[j]) ** 2).sum()), j)
+            for j in ids
+            if j != i and float(axes[i] @ axes[j]) >= cos_max
+        )
+        for _, j in near[:n]:
+            a, b = known.images[i].name, known.images[j].name
+            pairs.add((min(a, b), max(a, b)))
+    return sorted(pairs)
+
+
+def point_triangulation(
+    scene: Path, known: pycolmap.Reconstruction, out: Path, times, pairs_from_poses=None
+):
     colmap_dir = out / "colmap"
     if colmap_dir.exists():
         shutil.rmtree(colmap_dir)
@@ -94,8 +119,23 @@ def point_triangulation(scene: Path, known: pycolmap.Reconstruction, out: Path, 
     t = time.monotonic()
     matching = pycolmap.FeatureMatchingOptions()
     matching.num_threads = 2
-    pycolmap.match_exhaustive(db_path, matching_options=matching, device=pycolmap.Device.cpu)
-    times["exhaustive_matching_s"] = time.monotonic() - t
+    if pairs_from_poses is None:
+        pycolmap.match_exhaustive(
+            db_path, matching_options=matching, device=pycolmap.Device.cpu
+        )
+        times["exhaustive_matching_s"] = time.monotonic() - t
+    else:
+        pairs = colmap_dir / "pairs.txt"
+        pairs.write_text(
+            "".join(f"{a} {b}\n" for a, b in nearest_pairs(known, pairs_from_poses))
+        )
+        pycolmap.match_image_pairs(
+            db_path,
+            matching_options=matching,
+            pairing_options=pycolmap.ImportedPairingOptions(match_list_path=pairs),
+            device=pycolmap.Device.cpu,
+        )
+        times["pairs_from_poses_matching_s"] = time.monotonic() - t
 
     t = time.monotonic()
     sparse = colmap_dir / "sparse"
@@ -230,11 +270,20 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("scene", type=Path)
     parser.add_argument("out", type=Path)
+    parser.add_argument(
+        "--pairs-from-poses",
+        type=int,
+        metavar="N",
+        help="match each image with its N nearest (camera centre, viewing directions "
+        "within 30 deg, like hloc's pairs_from_poses) instead of every other image",
+    )
     args = parser.parse_args()
     times = {}
     known = known_poses(args.scene)
     log(f"{known.num_images()} images with known poses")
-    recon, db_path, sparse = point_triangulation(args.scene, known, args.out, times)
+    recon, db_path, sparse = point_triangulation(
+        args.scene, known, args.out, times, args.pairs_from_poses
+    )
     restored = restore_keypoints(recon, db_path)
     log(
         f"points: {recon.num_points3D()} (mean track length "
@@ -244,6 +293,11 @@ def main():
         args.scene, recon, sparse, args.out, times
     )
     result = report(recon, holistic, all_segs, limap_dir, times)
+    result["matching"] = (
+        "exhaustive"
+        if args.pairs_from_poses is None
+        else f"pairs_from_poses {args.pairs_from_poses}"
+    )
     log(
         f"3D lines: {len(result['lines3d'])}, in >= 4 images: "
         f"{result['tracks_in_4_images']}"
