@@ -7,7 +7,8 @@ use std::path::Path;
 #[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct StageRecord {
     pub stage: String,
-    /// pl2map version that wrote it; a new version reruns the stage.
+    /// pl2map version and results epoch that wrote it (`record_version`); another
+    /// reruns the stage.
     pub version: String,
     pub config_hash: String,
     /// Input name -> content hash.
@@ -26,11 +27,23 @@ pub enum RecordCheck {
 
 pub const RECORD_FILE: &str = "stage.json";
 
+/// Bumped by every change that moves a stage's outputs for the same configuration and
+/// inputs (the crate version stays 0.1.0 between releases): records of an older epoch
+/// are out of date, so a work folder made by an older build is never taken as current.
+/// 2: the front-end's dense descriptors and pytlsd's LSD (the synthetic ground truth).
+pub const RESULTS_EPOCH: u32 = 2;
+
+/// The version a record is written with and compared against: the crate version and
+/// [`RESULTS_EPOCH`].
+pub fn record_version() -> String {
+    format!("{}+results.{RESULTS_EPOCH}", env!("CARGO_PKG_VERSION"))
+}
+
 impl StageRecord {
     pub fn new(stage: &str, config_hash: String, inputs: BTreeMap<String, String>) -> Self {
         StageRecord {
             stage: stage.to_string(),
-            version: env!("CARGO_PKG_VERSION").to_string(),
+            version: record_version(),
             config_hash,
             inputs,
             outputs: BTreeMap::new(),
@@ -77,7 +90,7 @@ impl StageRecord {
         if rec.stage != stage {
             return changed(format!("record is for stage {}", rec.stage));
         }
-        if rec.version != env!("CARGO_PKG_VERSION") {
+        if rec.version != record_version() {
             return changed(format!("written by version {}", rec.version));
         }
         if rec.config_hash != config_hash {
@@ -140,5 +153,26 @@ mod tests {
             StageRecord::check(d, "shard", "c1", &inputs).unwrap(),
             RecordCheck::Changed(_)
         ));
+    }
+
+    /// A record written by a build of an earlier results epoch (same crate version) is
+    /// out of date, and the reason names the version it was written by.
+    #[test]
+    fn an_earlier_results_epoch_reruns_the_stage() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        let inputs = BTreeMap::new();
+        let mut rec = StageRecord::new("synth", "c1".into(), inputs.clone());
+        rec.save(d).unwrap();
+        assert_eq!(
+            StageRecord::check(d, "synth", "c1", &inputs).unwrap(),
+            RecordCheck::UpToDate
+        );
+        rec.version = env!("CARGO_PKG_VERSION").to_string();
+        rec.save(d).unwrap();
+        match StageRecord::check(d, "synth", "c1", &inputs).unwrap() {
+            RecordCheck::Changed(why) => assert!(why.contains("written by version 0.1.0"), "{why}"),
+            other => panic!("{other:?}"),
+        }
     }
 }
