@@ -39,15 +39,6 @@ pub enum DescriptorMethod {
     Opencv,
 }
 
-impl DescriptorMethod {
-    pub fn name(self) -> &'static str {
-        match self {
-            DescriptorMethod::Dense => "dense",
-            DescriptorMethod::Opencv => "opencv",
-        }
-    }
-}
-
 /// How a descriptor is computed at a given position.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -84,15 +75,6 @@ pub enum LsdImplementation {
     /// OpenCV's `createLineSegmentDetector` with refinement: the detector of
     /// checkpoints written before `implementation` existed (checkpoint format 1).
     Opencv,
-}
-
-impl LsdImplementation {
-    pub fn name(self) -> &'static str {
-        match self {
-            LsdImplementation::Pytlsd => "pytlsd",
-            LsdImplementation::Opencv => "opencv",
-        }
-    }
 }
 
 /// LSD line detection.

@@ -223,14 +223,11 @@ fn triangle_stream(src: &[f32], n: usize, half: usize, out: &mut [f32]) {
     };
     let (mut t, mut r, mut l) = (ZERO, ZERO, ZERO);
     for k in 0..half as isize {
-        let v = g(k);
-        for c in 0..ORIENTATIONS {
-            t[c] += (half as isize - k) as f32 * v[c];
-        }
+        add_rows(&mut t, &g(k), (half as isize - k) as f32);
     }
-    l = add(l, g(0), 1.0);
+    add_rows(&mut l, &g(0), 1.0);
     for m in 1..=half as isize {
-        r = add(r, g(m), 1.0);
+        add_rows(&mut r, &g(m), 1.0);
     }
     let half = half as isize;
     for i in 0..n as isize {
@@ -241,16 +238,11 @@ fn triangle_stream(src: &[f32], n: usize, half: usize, out: &mut [f32]) {
             t[c] += r[c] - l[c];
         }
         let next = g(i + 1);
-        r = add(add(r, g(i + 1 + half), 1.0), next, -1.0);
-        l = add(add(l, next, 1.0), g(i + 1 - half), -1.0);
+        add_rows(&mut r, &g(i + 1 + half), 1.0);
+        add_rows(&mut r, &next, -1.0);
+        add_rows(&mut l, &next, 1.0);
+        add_rows(&mut l, &g(i + 1 - half), -1.0);
     }
-}
-
-fn add(mut a: Px, b: Px, sign: f32) -> Px {
-    for c in 0..ORIENTATIONS {
-        a[c] += sign * b[c];
-    }
-    a
 }
 
 impl DenseMap {

@@ -69,14 +69,7 @@ pub(crate) fn gaussian_sampler(input: &Grid<f64>, scale: f64, sigma_scale: f64) 
     // x pass: input rows, output columns.
     let mut aux = Grid::filled(out_w, input.height, 0.0);
     for x in 0..out_w {
-        let xx = x as f64 / scale;
-        // The input pixel whose cell (centre +- 0.5) holds xx; the kernel is recomputed
-        // for each x because the fractional offset xx - xc differs.
-        let xc = (xx + 0.5).floor() as i64;
-        gaussian_kernel(&mut kernel, sigma, h as f64 + xx - xc as f64);
-        let taps: Vec<usize> = (0..kernel.len())
-            .map(|i| mirror(xc - h + i as i64, input.width))
-            .collect();
+        let taps = kernel_at(&mut kernel, sigma, h, x, scale, input.width);
         for y in 0..input.height {
             let row = &input.data[y * input.width..(y + 1) * input.width];
             let mut sum = 0.0;
@@ -90,12 +83,7 @@ pub(crate) fn gaussian_sampler(input: &Grid<f64>, scale: f64, sigma_scale: f64) 
     // y pass: the x pass's columns, output rows.
     let mut out = Grid::filled(out_w, out_h, 0.0);
     for y in 0..out_h {
-        let yy = y as f64 / scale;
-        let yc = (yy + 0.5).floor() as i64;
-        gaussian_kernel(&mut kernel, sigma, h as f64 + yy - yc as f64);
-        let taps: Vec<usize> = (0..kernel.len())
-            .map(|i| mirror(yc - h + i as i64, input.height))
-            .collect();
+        let taps = kernel_at(&mut kernel, sigma, h, y, scale, input.height);
         for x in 0..out_w {
             let mut sum = 0.0;
             for (&j, &k) in taps.iter().zip(&kernel) {
@@ -105,6 +93,19 @@ pub(crate) fn gaussian_sampler(input: &Grid<f64>, scale: f64, sigma_scale: f64) 
         }
     }
     out
+}
+
+/// The kernel (into `kernel`) and the mirrored input indices it weighs for output sample
+/// `i` of an axis of `n` input pixels: the input pixel whose cell (centre +- 0.5) holds
+/// `i / scale`. The kernel is recomputed for each sample because the fractional offset
+/// differs.
+fn kernel_at(kernel: &mut [f64], sigma: f64, h: i64, i: usize, scale: f64, n: usize) -> Vec<usize> {
+    let pos = i as f64 / scale;
+    let centre = (pos + 0.5).floor() as i64;
+    gaussian_kernel(kernel, sigma, h as f64 + pos - centre as f64);
+    (0..kernel.len())
+        .map(|k| mirror(centre - h + k as i64, n))
+        .collect()
 }
 
 #[cfg(test)]

@@ -294,21 +294,26 @@ mod tests {
         c
     }
 
+    /// A header before `save` fills the hashes.
+    fn header(config: TrainConfig, iteration: u64) -> CheckpointHeader {
+        CheckpointHeader {
+            tool_version: "test".into(),
+            config,
+            iteration,
+            has_optimizer: false,
+            scene_centre: [0.0; 3],
+            weights_hash: String::new(),
+            optimizer_hash: String::new(),
+        }
+    }
+
     #[test]
     fn round_trip_is_bit_exact_and_corruption_is_an_error() {
         let dir = tempfile::tempdir().unwrap();
         let cfg = tiny();
         let net = cfg.model.init::<AD>(3, &Default::default()).unwrap();
         let path = dir.path().join("a.ckpt");
-        let header = CheckpointHeader {
-            tool_version: "test".into(),
-            config: cfg.clone(),
-            iteration: 42,
-            has_optimizer: false,
-            scene_centre: [0.0; 3],
-            weights_hash: String::new(),
-            optimizer_hash: String::new(),
-        };
+        let header = header(cfg.clone(), 42);
         save(&path, &header, &net, None).unwrap();
         let back = CheckpointFile::read(&path).unwrap();
         assert_eq!(back.header.iteration, 42);
@@ -349,15 +354,7 @@ mod tests {
         );
         let net = cfg.model.init::<AD>(3, &Default::default()).unwrap();
         let path = dir.path().join("old.ckpt");
-        let header = CheckpointHeader {
-            tool_version: "test".into(),
-            config: cfg,
-            iteration: 1,
-            has_optimizer: false,
-            scene_centre: [0.0; 3],
-            weights_hash: String::new(),
-            optimizer_hash: String::new(),
-        };
+        let header = header(cfg, 1);
         save(&path, &header, &net, None).unwrap();
         let new = CheckpointFile::read(&path).unwrap();
         assert_eq!(
