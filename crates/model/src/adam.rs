@@ -117,19 +117,30 @@ impl<B: Pl2MapBackend> SimpleOptimizer<B> for FusedAdam {
             .zip(m.par_chunks_mut(CHUNK))
             .zip(v.par_chunks_mut(CHUNK))
             .for_each(|(((p, g), m), v)| {
-                for i in 0..p.len() {
-                    let gi = g[i];
+                // Zipped slices (no bounds checks) and the first-step branch outside the
+                // loop: the compiler then vectorises it. Lane-wise sqrt and division are
+                // IEEE-exact, so the results are the scalar loop's bit for bit.
+                let update = |p: &mut f32, mi: f32, vi: f32| {
+                    let delta = (mi * combined_factor) / (vi.sqrt() + eps);
+                    *p -= delta * lr;
+                };
+                let it = p.iter_mut().zip(g).zip(m.iter_mut().zip(v.iter_mut()));
+                if first {
                     // The first step starts the moments from the gradient (not 0 * beta +
                     // ...: that would turn -0 into +0).
-                    let (mi, vi) = if first {
-                        (gi * f1, (gi * gi) * f2)
-                    } else {
-                        (m[i] * b1 + gi * f1, v[i] * b2 + (gi * gi) * f2)
-                    };
-                    m[i] = mi;
-                    v[i] = vi;
-                    let delta = (mi * combined_factor) / (vi.sqrt() + eps);
-                    p[i] -= delta * lr;
+                    for ((p, &gi), (m, v)) in it {
+                        let (mi, vi) = (gi * f1, (gi * gi) * f2);
+                        *m = mi;
+                        *v = vi;
+                        update(p, mi, vi);
+                    }
+                } else {
+                    for ((p, &gi), (m, v)) in it {
+                        let (mi, vi) = (*m * b1 + gi * f1, *v * b2 + (gi * gi) * f2);
+                        *m = mi;
+                        *v = vi;
+                        update(p, mi, vi);
+                    }
                 }
             });
         let tensor =
