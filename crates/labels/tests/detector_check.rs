@@ -9,8 +9,8 @@
 use datasets::ingest::{self, DatasetKind, IngestConfig};
 use features::{FrontEnd, FrontEndConfig, FrontEndKind, SiftFrontEnd};
 use labels::import::{
-    self, DetectorCheck, ImportConfig, ImportError, MATCH_RADIUS_PX, MIN_KEYPOINT_RATE,
-    MIN_SEGMENT_RATE, matched_keypoints,
+    self, DETECTED_RADIUS_PX, DetectorCheck, ImportConfig, ImportError, MATCH_RADIUS_PX,
+    MIN_KEYPOINT_RATE, MIN_SEGMENT_RATE, PointLabels, matched_keypoints,
 };
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -392,4 +392,85 @@ fn colmap_s_own_sift_model_passes_under_sift() {
     let rate = matched as f64 / n as f64;
     println!("COLMAP SIFT model under sift: {:.1} % of {n}", 100.0 * rate);
     assert!(rate >= MIN_KEYPOINT_RATE, "{rate}");
+}
+
+/// `point_labels = "detected"` keeps the model keypoints the front-end detects and
+/// leaves the others out: the synthetic model's keypoints are the front-end's own
+/// detections (all kept); moved by 3 px, none is a detection any more.
+#[test]
+fn detected_point_labels_keep_the_front_end_s_own_keypoints_only() {
+    let f = fixture();
+    let all = tempfile::tempdir().unwrap();
+    let base = import::run(&config(f, None), &f.frames, all.path()).expect("import");
+    let (keypoints, labelled) = (
+        base.output.report.points.keypoints,
+        base.output.report.points.valid,
+    );
+    assert!(base.output.report.detected_labels.is_none());
+
+    let mut c = config(f, None);
+    c.point_labels = PointLabels::Detected;
+    let out = tempfile::tempdir().unwrap();
+    let done = import::run(&c, &f.frames, out.path()).expect("import");
+    let d = done.output.report.detected_labels.clone().expect("ran");
+    println!("own keypoints: {}", d.line());
+    assert_eq!((d.keypoints, d.keypoints_kept), (keypoints, keypoints));
+    assert_eq!((d.labels, d.labels_kept), (labelled, labelled));
+    assert!(
+        done.output
+            .report
+            .table()
+            .contains("model keypoints at sift detections")
+    );
+    let same = |a: &Path, b: &Path| {
+        let (a, b) = (
+            tables::labels::LabelTables::read(a).unwrap(),
+            tables::labels::LabelTables::read(b).unwrap(),
+        );
+        a.points == b.points
+    };
+    assert!(same(all.path(), out.path()));
+
+    // The same model with every keypoint 3 px to the right. A moved keypoint survives
+    // only where it lands within 1 px of another keypoint of its image (the model's
+    // keypoints are the detections): counted here by brute force.
+    let mut model = colmap::read(&gt(f).join("colmap")).unwrap();
+    let train: std::collections::HashSet<String> = FramesTable::read_parquet(&f.frames)
+        .unwrap()
+        .frames
+        .iter()
+        .filter(|fr| fr.split == tables::frames::Split::Train)
+        .map(|fr| fr.name.clone())
+        .collect();
+    let mut survivors = (0, 0);
+    for im in model.images.iter_mut() {
+        let before: Vec<[f64; 2]> = im.points2d.iter().map(|p| p.xy).collect();
+        for p in im.points2d.iter_mut() {
+            p.xy[0] += 3.0;
+            let near = before
+                .iter()
+                .any(|q| (q[0] - p.xy[0]).hypot(q[1] - p.xy[1]) <= DETECTED_RADIUS_PX);
+            if near && train.contains(&im.name) {
+                survivors.0 += 1;
+                survivors.1 += p.has_point3d() as usize;
+            }
+        }
+    }
+    let moved = tempfile::tempdir().unwrap();
+    colmap::write_binary(&model, moved.path()).unwrap();
+    let mut c = config(f, None);
+    c.model = Some(moved.path().to_path_buf());
+    c.point_labels = PointLabels::Detected;
+    c.detector_check = DetectorCheck::Off;
+    let out = tempfile::tempdir().unwrap();
+    let done = import::run(&c, &f.frames, out.path()).expect("import");
+    let d = done.output.report.detected_labels.clone().expect("ran");
+    println!("keypoints moved by 3 px: {}", d.line());
+    assert_eq!((d.keypoints, d.labels), (keypoints, labelled));
+    assert_eq!((d.keypoints_kept, d.labels_kept), survivors);
+    assert!(d.keypoints_kept * 20 < keypoints, "{}", d.line());
+    let points = tables::labels::LabelTables::read(out.path())
+        .unwrap()
+        .points;
+    assert_eq!(points.len(), survivors.0);
 }

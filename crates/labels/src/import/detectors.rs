@@ -251,11 +251,21 @@ fn close(a: [f64; 2], b: [f64; 2], r: f64) -> bool {
 
 /// How many of `keypoints` lie within `r` of one of `detections`.
 pub fn matched_keypoints(keypoints: &[[f64; 2]], detections: &[[f64; 2]], r: f64) -> usize {
+    keypoints_near(keypoints, detections, r)
+        .filter(|&m| m)
+        .count()
+}
+
+/// For each of `keypoints`, whether one of `detections` lies within `r`.
+pub fn keypoints_near<'a>(
+    keypoints: &'a [[f64; 2]],
+    detections: &'a [[f64; 2]],
+    r: f64,
+) -> impl Iterator<Item = bool> + 'a {
     let grid = Grid::new(detections.iter().copied(), r);
     keypoints
         .iter()
-        .filter(|&&p| grid.near(p).any(|i| close(p, detections[i], r)))
-        .count()
+        .map(move |&p| grid.near(p).any(|i| close(p, detections[i], r)))
 }
 
 fn segment_length(s: &[f64; 4]) -> f64 {

@@ -19,14 +19,16 @@
 //! read) is skipped.
 
 mod build;
+mod detected;
 mod detectors;
 mod problems;
 mod report;
 
 pub use build::build;
+pub use detected::{DETECTED_RADIUS_PX, DetectedLabelsReport, PointLabels, detected_rows};
 pub use detectors::{
     DetectorCheck, DetectorCheckReport, MATCH_RADIUS_PX, MIN_KEYPOINT_RATE, MIN_SEGMENT_RATE,
-    MakeFrontEnd, SAMPLE_IMAGES, matched_keypoints, matched_segments, sift_only,
+    MakeFrontEnd, SAMPLE_IMAGES, keypoints_near, matched_keypoints, matched_segments, sift_only,
 };
 pub use problems::{EXAMPLES_PER_KIND, ImportProblem, summarize};
 pub use report::{
@@ -108,6 +110,13 @@ pub struct ImportConfig {
     #[serde(skip_serializing_if = "DetectorCheck::is_default")]
     #[arg(long, value_enum, default_value_t = DetectorCheck::default())]
     pub detector_check: DetectorCheck,
+    /// Which model keypoints enter the labels: `all` (default) or `detected`, only those
+    /// the front-end detects itself within 1 px (docs/method.md section 3). For a model whose detector is another
+    /// implementation of the front-end's (COLMAP's or hloc's SIFT under OpenCV's SIFT),
+    /// so that training describes the positions the query detects.
+    #[serde(skip_serializing_if = "PointLabels::is_default")]
+    #[arg(long, value_enum, default_value_t = PointLabels::default())]
+    pub point_labels: PointLabels,
     /// The front-end the check compares with (`pl2map import --front-end`; a pipeline's
     /// `[features]` sets its kind and SuperPoint weights). Left out of the serialised
     /// form when the default (SIFT), and its weights file is hashed by content.
@@ -167,6 +176,7 @@ impl Default for ImportConfig {
             limap_tracks: None,
             line_tracks: LineTrackSet::Finaltracks,
             detector_check: DetectorCheck::Refuse,
+            point_labels: PointLabels::All,
             front_end: features::FrontEndConfig::default(),
         }
     }
@@ -352,9 +362,11 @@ pub fn run_with(
     // The check's front-end is built from the configuration with its weights path; the
     // record hashes the weights' content instead of the path.
     let front_end = config.front_end.clone();
-    let weights = match (config.detector_check, front_end.kind) {
-        (DetectorCheck::Off, _) | (_, features::FrontEndKind::Sift) => None,
-        (_, features::FrontEndKind::Superpoint) => front_end.superpoint.weights_path(),
+    let detects =
+        config.detector_check != DetectorCheck::Off || config.point_labels == PointLabels::Detected;
+    let weights = match (detects, front_end.kind) {
+        (false, _) | (_, features::FrontEndKind::Sift) => None,
+        (true, features::FrontEndKind::Superpoint) => front_end.superpoint.weights_path(),
     };
     let config = &config.settings();
     let frames_sha256 = stage::sha256_file(frames_path)?;
@@ -391,7 +403,7 @@ pub fn run_with(
                 dir: model_dir.to_path_buf(),
                 source,
             })?;
-            let (tables, mut report) = build(config, &frames, &frames_sha256, &model, &limap)?;
+            let (mut tables, mut report) = build(config, &frames, &frames_sha256, &model, &limap)?;
             if config.detector_check != DetectorCheck::Off {
                 let mut check = detectors::check(&front_end, make_front_end, &frames, &tables)?;
                 if !check.passed() {
@@ -407,6 +419,15 @@ pub fn run_with(
                     ));
                 }
                 report.detector_check = Some(check);
+            }
+            // After the check: it compares all of the model's keypoints.
+            if config.point_labels == PointLabels::Detected {
+                report.detected_labels = Some(detected::keep_detected(
+                    &front_end,
+                    make_front_end,
+                    &frames,
+                    &mut tables,
+                )?);
             }
             tables.write(outputs.dir())?;
             for f in [POINTS_FILE, LINES_FILE, POSES_FILE] {

@@ -1,7 +1,7 @@
 //! What the import found and wrote: counts, pose disagreement between the SfM model and
 //! the dataset, and warnings. Saved as JSON and printed as a short table.
 
-use super::{DetectorCheckReport, ImportConfig};
+use super::{DetectedLabelsReport, DetectorCheckReport, ImportConfig};
 use crate::stats::Spread;
 use serde::{Deserialize, Serialize};
 
@@ -94,6 +94,10 @@ pub struct ImportReport {
     /// (`detector_check = "off"`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub detector_check: Option<DetectorCheckReport>,
+    /// What `point_labels = "detected"` kept; absent with `all`. `points` counts the
+    /// labels before it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub detected_labels: Option<DetectedLabelsReport>,
 }
 
 fn pct(n: usize, of: usize) -> String {
@@ -194,6 +198,9 @@ impl ImportReport {
         }
         if let Some(c) = &self.detector_check {
             s.push_str(&format!("detector check ({}): {}\n", c.decision, c.rates()));
+        }
+        if let Some(d) = &self.detected_labels {
+            s.push_str(&format!("{}\n", d.line()));
         }
         for w in &self.warnings {
             s.push_str(&format!("warning: {w}\n"));
