@@ -120,11 +120,21 @@ impl ImportReport {
     /// The short table printed after an import.
     /// One line: the labelled points and lines of the training frames.
     pub fn note(&self) -> String {
+        // With point_labels = "detected", the keypoints that remain.
+        let (valid, keypoints) = match &self.detected_labels {
+            Some(d) => (d.labels_kept, d.keypoints_kept),
+            None => (self.points.valid, self.points.keypoints),
+        };
         format!(
-            "{} training frames: {} of {} keypoints and {} of {} segments labelled",
+            "{} training frames: {} of {} keypoints{} and {} of {} segments labelled",
             self.train_frames,
-            self.points.valid,
-            self.points.keypoints,
+            valid,
+            keypoints,
+            if self.detected_labels.is_some() {
+                " at the front-end's detections"
+            } else {
+                ""
+            },
             self.lines.valid,
             self.lines.segments
         )
