@@ -423,8 +423,9 @@ fn detected_point_labels_keep_the_front_end_s_own_keypoints_only() {
             .contains("model keypoints at sift detections")
     );
     assert!(
-        stage::Note::note(&done.output)
-            .contains(&format!("{labelled} of {keypoints} keypoints at the front-end's detections")),
+        stage::Note::note(&done.output).contains(&format!(
+            "{labelled} of {keypoints} keypoints at the front-end's detections"
+        )),
         "{}",
         stage::Note::note(&done.output)
     );
