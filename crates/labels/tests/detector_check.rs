@@ -394,6 +394,23 @@ fn colmap_s_own_sift_model_passes_under_sift() {
     assert!(rate >= MIN_KEYPOINT_RATE, "{rate}");
 }
 
+/// Imports `c` with `point_labels = "detected"` into a fresh folder; prints what it kept.
+fn import_detected(
+    mut c: ImportConfig,
+    what: &str,
+) -> (
+    tempfile::TempDir,
+    stage::Done<import::ImportOutput>,
+    import::DetectedLabelsReport,
+) {
+    c.point_labels = PointLabels::Detected;
+    let out = tempfile::tempdir().unwrap();
+    let done = import::run(&c, &fixture().frames, out.path()).expect("import");
+    let d = done.output.report.detected_labels.clone().expect("ran");
+    println!("{what}: {}", d.line());
+    (out, done, d)
+}
+
 /// `point_labels = "detected"` keeps the model keypoints the front-end detects and
 /// leaves the others out: the synthetic model's keypoints are the front-end's own
 /// detections (all kept); moved by 3 px, none is a detection any more.
@@ -408,12 +425,7 @@ fn detected_point_labels_keep_the_front_end_s_own_keypoints_only() {
     );
     assert!(base.output.report.detected_labels.is_none());
 
-    let mut c = config(f, None);
-    c.point_labels = PointLabels::Detected;
-    let out = tempfile::tempdir().unwrap();
-    let done = import::run(&c, &f.frames, out.path()).expect("import");
-    let d = done.output.report.detected_labels.clone().expect("ran");
-    println!("own keypoints: {}", d.line());
+    let (out, done, d) = import_detected(config(f, None), "own keypoints");
     assert_eq!((d.keypoints, d.keypoints_kept), (keypoints, keypoints));
     assert_eq!((d.labels, d.labels_kept), (labelled, labelled));
     assert!(
@@ -467,12 +479,8 @@ fn detected_point_labels_keep_the_front_end_s_own_keypoints_only() {
     colmap::write_binary(&model, moved.path()).unwrap();
     let mut c = config(f, None);
     c.model = Some(moved.path().to_path_buf());
-    c.point_labels = PointLabels::Detected;
     c.detector_check = DetectorCheck::Off;
-    let out = tempfile::tempdir().unwrap();
-    let done = import::run(&c, &f.frames, out.path()).expect("import");
-    let d = done.output.report.detected_labels.clone().expect("ran");
-    println!("keypoints moved by 3 px: {}", d.line());
+    let (out, _, d) = import_detected(c, "keypoints moved by 3 px");
     assert_eq!((d.keypoints, d.labels), (keypoints, labelled));
     assert_eq!((d.keypoints_kept, d.labels_kept), survivors);
     assert!(d.keypoints_kept * 20 < keypoints, "{}", d.line());

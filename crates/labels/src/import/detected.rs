@@ -28,7 +28,7 @@ use tables::labels::{LabelTables, PointRow};
 /// 1 px keeps those and drops neighbours of other keypoints.
 pub const DETECTED_RADIUS_PX: f64 = 1.0;
 
-/// `[import] point_labels`: which model keypoints keep their 3D label.
+/// `[import] point_labels`: which model keypoints enter the labels.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
 #[serde(rename_all = "lowercase")]
 pub enum PointLabels {
@@ -45,19 +45,6 @@ impl PointLabels {
     /// reports that hash them) written before the option existed keep their bytes.
     pub(super) fn is_default(&self) -> bool {
         *self == PointLabels::default()
-    }
-
-    pub fn as_str(self) -> &'static str {
-        match self {
-            PointLabels::All => "all",
-            PointLabels::Detected => "detected",
-        }
-    }
-}
-
-impl std::fmt::Display for PointLabels {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(self.as_str())
     }
 }
 
@@ -147,9 +134,8 @@ pub fn keep_detected(
     bar.finish_and_clear();
     let labels = tables.points.iter().filter(|p| p.xyz.is_some()).count();
     let keypoints = tables.points.len();
-    let keep = detected_rows(&tables.points, &detections, DETECTED_RADIUS_PX);
-    let mut it = keep.iter();
-    tables.points.retain(|_| *it.next().unwrap_or(&false));
+    let mut keep = detected_rows(&tables.points, &detections, DETECTED_RADIUS_PX).into_iter();
+    tables.points.retain(|_| keep.next().unwrap_or(false));
     Ok(DetectedLabelsReport {
         front_end: front_end.kind.name().to_string(),
         radius_px: DETECTED_RADIUS_PX,
@@ -168,18 +154,16 @@ pub fn detected_rows(
     detections: &HashMap<u32, Vec<[f64; 2]>>,
     r: f64,
 ) -> Vec<bool> {
-    let mut by_frame: HashMap<u32, Vec<usize>> = HashMap::new();
-    for (i, p) in points.iter().enumerate() {
-        by_frame.entry(p.frame_id).or_default().push(i);
-    }
-    let mut keep = vec![false; points.len()];
-    for (id, rows) in by_frame {
-        let Some(det) = detections.get(&id) else {
-            continue;
-        };
-        let xy: Vec<[f64; 2]> = rows.iter().map(|&i| points[i].xy).collect();
-        for (&i, near) in rows.iter().zip(keypoints_near(&xy, det, r)) {
-            keep[i] = near;
+    let mut keep = Vec::with_capacity(points.len());
+    // The table is sorted by frame; a frame split into several runs would only cost
+    // one more grid.
+    for rows in points.chunk_by(|a, b| a.frame_id == b.frame_id) {
+        match detections.get(&rows[0].frame_id) {
+            Some(det) => {
+                let xy: Vec<[f64; 2]> = rows.iter().map(|p| p.xy).collect();
+                keep.extend(keypoints_near(&xy, det, r));
+            }
+            None => keep.extend(std::iter::repeat_n(false, rows.len())),
         }
     }
     keep
