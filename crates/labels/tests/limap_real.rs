@@ -5,15 +5,16 @@
 //! `PL2MAP_LIMAP_PYTHON`). The LIMAP folder is read as LIMAP 2.0 writes it
 //! (docs/formats.md section 2) and its counts are compared with what the script read
 //! through LIMAP's own Python API (`report.json`); then the import takes both folders
-//! unconverted and its label counts are compared with the same numbers. Skips with its
-//! reason without the venv.
+//! unconverted and its label counts are compared with the same numbers, and
+//! `point_labels = "detected"` keeps what OpenCV's Python SIFT and pycolmap count
+//! (`opencv_detected.py`). Skips with its reason without the venv.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use datasets::ingest::{self, DatasetKind, IngestConfig};
-use labels::import::{self, ImportConfig, LineTrackSet};
+use labels::import::{self, DETECTED_RADIUS_PX, ImportConfig, LineTrackSet, PointLabels};
 use limap::{Layout, LimapDir, LimapDirOptions, SegmentsOrigin};
 use serde_json::Value;
 use synth::generate_tiny;
@@ -185,4 +186,40 @@ fn limap2_output_of_the_real_tools_reads_unconverted() {
             d.rates()
         );
     }
+
+    // point_labels = "detected" on pycolmap's model keeps the keypoints (and labels) that
+    // OpenCV's Python SIFT detects within the radius, as pycolmap and OpenCV count them.
+    let counted = testkit::python::run(
+        Command::new(&python)
+            .arg(Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/opencv_detected.py"))
+            .arg(out.join("colmap/sparse"))
+            .arg(&synth.root)
+            .arg(DETECTED_RADIUS_PX.to_string()),
+    );
+    let counted: Value = serde_json::from_slice(&counted).unwrap();
+    let config = ImportConfig {
+        model: Some(out.join("colmap/sparse")),
+        limap: Some(root.clone()),
+        point_labels: PointLabels::Detected,
+        ..ImportConfig::default()
+    };
+    let done = import::run(&config, &frames, &dir.path().join("detected")).expect("import");
+    let d = done.output.report.detected_labels.clone().unwrap();
+    eprintln!("{}; OpenCV (Python) and pycolmap count {counted}", d.line());
+    assert_eq!(d.keypoints as u64, as_u64(&counted["keypoints"]));
+    assert_eq!(d.labels as u64, as_u64(&counted["labels"]));
+    // The Python wheel's OpenCV may be another release than the one pl2map links: equal
+    // on 2026-12-03 (5.1.0 against 4.6.0), within half a percent allowed.
+    for (ours, theirs) in [
+        (d.keypoints_kept, &counted["keypoints_kept"]),
+        (d.labels_kept, &counted["labels_kept"]),
+    ] {
+        let theirs = as_u64(theirs) as f64;
+        assert!(
+            (ours as f64 - theirs).abs() <= 0.005 * theirs,
+            "{ours} kept against {theirs} counted: {}",
+            d.line()
+        );
+    }
+    assert!(d.keypoints_kept < d.keypoints && d.labels_kept > 0);
 }
