@@ -31,7 +31,8 @@
 # room: render 68 s; tools 2409 s (SIFT 114 s, matching 2,316 pairs 164 s, point
 # triangulation 29 s, LIMAP metainfos 2 s, LSD 19 s, line triangulation 2077 s); ingest
 # 2 s, import 4 s, refine 4 s, shard 2 s, train 1522 s, score 27 s: about 67 min. The
-# tiny scene: under 2 minutes up to the shards.
+# tiny scene: under 2 minutes up to the shards. On a 2-core Intel Xeon VM (2026-12-04, shared
+# with one other training): render 31 s, tools 922 s (line triangulation 776 s), train 973 s.
 set -euo pipefail
 
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"

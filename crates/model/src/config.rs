@@ -49,6 +49,33 @@ pub struct ModelConfig {
     /// Lines are not scaled: it would sharpen the line encoder's softmax.
     #[serde(default = "unit_scale", skip_serializing_if = "is_unit_scale")]
     pub point_input_scale: f64,
+    /// How the regression heads' weights start (see [`HeadInit`]).
+    #[serde(default, skip_serializing_if = "HeadInit::is_reference")]
+    pub head_init: HeadInit,
+}
+
+/// Initial weights of the point and line heads (the MLPs after the graph network).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum HeadInit {
+    /// PyTorch's default for Linear layers, U(+-1/sqrt(fan_in)) for weights and biases, as
+    /// the reference. Each ReLU layer then shrinks the signal's second moment about
+    /// six-fold, so a deep head starts out nearly constant and the map loss sits at the
+    /// labels' spread until the weights have grown (docs/training-notes.md, "Head
+    /// initialisation").
+    #[default]
+    Reference,
+    /// He (Kaiming) uniform: U(+-sqrt(6/fan_in)) for the weights of layers followed by a
+    /// ReLU, which keeps the signal's scale through the head; biases start at zero. The
+    /// last layer keeps the reference's distribution. The draws are the reference's,
+    /// scaled, so the rest of the network gets the same values either way.
+    He,
+}
+
+impl HeadInit {
+    pub fn is_reference(&self) -> bool {
+        *self == HeadInit::Reference
+    }
 }
 
 fn unit_scale() -> f64 {
@@ -76,6 +103,7 @@ impl ModelConfig {
             dropout: 0.1,
             reliability_beta: 100.0,
             point_input_scale: 1.0,
+            head_init: HeadInit::Reference,
         }
     }
 
@@ -170,5 +198,19 @@ mod tests {
         assert!(c.validate().is_ok());
         c.dropout = 1.0;
         assert!(c.validate().is_err());
+    }
+
+    #[test]
+    fn head_init_defaults_to_the_reference_and_is_written_only_when_not() {
+        let text = serde_json::to_string(&ModelConfig::sift()).unwrap();
+        assert!(!text.contains("head_init"), "{text}");
+        let back: ModelConfig = serde_json::from_str(&text).unwrap();
+        assert_eq!(back.head_init, HeadInit::Reference);
+        let mut he = ModelConfig::sift();
+        he.head_init = HeadInit::He;
+        let text = serde_json::to_string(&he).unwrap();
+        assert!(text.contains(r#""head_init":"he""#), "{text}");
+        assert_eq!(serde_json::from_str::<ModelConfig>(&text).unwrap(), he);
+        assert!(serde_json::from_str::<HeadInit>(r#""kaiming""#).is_err());
     }
 }

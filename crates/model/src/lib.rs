@@ -42,7 +42,7 @@ mod testutil;
 
 pub use backend::Pl2MapBackend;
 pub use burn;
-pub use config::{LayerKind, ModelConfig};
+pub use config::{HeadInit, LayerKind, ModelConfig};
 pub use device::Device;
 pub use dropout::Dropout;
 pub use error::ModelError;

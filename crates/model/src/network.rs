@@ -60,8 +60,16 @@ impl ModelConfig {
             w.push(out);
             w
         };
-        let point_head = Mlp::new(&mut init, &widths(&self.head_hidden, POINT_OUTPUTS));
-        let line_head = Mlp::new(&mut init, &widths(self.line_head_widths(), LINE_OUTPUTS));
+        let point_head = Mlp::new(
+            &mut init,
+            &widths(&self.head_hidden, POINT_OUTPUTS),
+            self.head_init,
+        );
+        let line_head = Mlp::new(
+            &mut init,
+            &widths(self.line_head_widths(), LINE_OUTPUTS),
+            self.head_init,
+        );
         let model = Pl2Map {
             line_encoder,
             graph,

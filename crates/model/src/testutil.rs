@@ -19,6 +19,7 @@ pub fn tiny_config() -> ModelConfig {
         dropout: 0.1,
         reliability_beta: 100.0,
         point_input_scale: 1.0,
+        head_init: crate::HeadInit::Reference,
     }
 }
 

@@ -250,6 +250,10 @@ fn committed_pipeline_files_resolve() {
     let synth = d.synth.as_ref().unwrap();
     assert!(!synth.tiny && synth.frames == 300 && d.refine.is_some());
     assert!(d.file.train.is_some() && d.file.score.is_some());
+    // The main job's deep heads start He-initialised (docs/training-notes.md, "Head
+    // initialisation"); the paper's recipes below keep the reference's initialisation.
+    let main_train = d.file.train.as_ref().unwrap();
+    assert!(!main_train.model.head_init.is_reference());
     let t = Pipeline::load(&tiny_pipeline()).unwrap();
     assert!(t.synth.as_ref().unwrap().tiny);
     // The reference's graph network on the main job's data: the same data sections.
@@ -261,6 +265,7 @@ fn committed_pipeline_files_resolve() {
     assert_eq!(gt.model.layers.len(), 5);
     assert_eq!(gt.model.head_hidden, vec![512, 1024, 512]);
     assert_eq!(gt.iterations, 30_000);
+    assert!(gt.model.head_init.is_reference());
     // The paper's recipes: SuperPoint at D = 256, the graph network, alltracks, the
     // reference's schedule and reprojection scale per dataset.
     for (file, tau_max, learning_rate, iterations) in [
@@ -280,6 +285,7 @@ fn committed_pipeline_files_resolve() {
         );
         assert_eq!(train.model.descriptor_dim, 256, "{file}");
         assert_eq!(train.model.layers.len(), 5, "{file}");
+        assert!(train.model.head_init.is_reference(), "{file}");
         assert_eq!(train.loss.tau_max, tau_max, "{file}");
         assert_eq!(train.learning_rate, learning_rate, "{file}");
         assert_eq!(train.iterations, iterations, "{file}");
