@@ -44,23 +44,23 @@ impl<'d, B: Backend> Initializer<'d, B> {
     }
 
     /// He (Kaiming) uniform for a layer followed by a ReLU: weights U(+-sqrt(6/fan_in)),
-    /// zero bias. The same draws as [`Self::linear`] (scaled, the bias drawn and
-    /// discarded), so the layers after this one get the same values under either policy.
+    /// zero bias. The same draws as [`Self::linear`] scaled, so the layers after this one
+    /// get the same values under either policy.
     pub fn linear_he(&mut self, d_in: usize, d_out: usize) -> Linear<B> {
-        let bound = 1.0 / (d_in as f32).sqrt();
-        let gain = 6.0f32.sqrt();
-        let weight = self.uniform(d_in * d_out, bound * gain);
-        let _ = self.uniform(d_out, bound);
-        self.linear_from(d_in, d_out, weight, vec![0.0; d_out])
+        self.linear_scaled_zero_bias(d_in, d_out, 6.0f32.sqrt())
     }
 
     /// A linear layer whose bias starts at zero (last layer of a message MLP: a fresh
     /// propagation layer then adds a zero-mean update).
     pub fn linear_zero_bias(&mut self, d_in: usize, d_out: usize) -> Linear<B> {
+        self.linear_scaled_zero_bias(d_in, d_out, 1.0)
+    }
+
+    /// Weights U(+-gain/sqrt(fan_in)) and a zero bias. The bias is drawn (and discarded)
+    /// anyway so that later layers get the same values whichever policy this layer has.
+    fn linear_scaled_zero_bias(&mut self, d_in: usize, d_out: usize, gain: f32) -> Linear<B> {
         let bound = 1.0 / (d_in as f32).sqrt();
-        let weight = self.uniform(d_in * d_out, bound);
-        // Draw (and discard) the bias anyway so that later layers get the same values
-        // whichever bias policy this layer has.
+        let weight = self.uniform(d_in * d_out, bound * gain);
         let _ = self.uniform(d_out, bound);
         self.linear_from(d_in, d_out, weight, vec![0.0; d_out])
     }
