@@ -5,7 +5,7 @@ use crate::backend::{Pl2MapBackend, softmax_last};
 use crate::init::Initializer;
 use burn::module::Module;
 use burn::nn::Linear;
-use burn::tensor::{Tensor, backend::Backend};
+use burn::tensor::{Tensor, TensorPrimitive, backend::Backend};
 
 /// Query, key and value projections and the output (merge) projection, all `D -> D` with bias.
 #[derive(Module, Debug)]
@@ -46,6 +46,28 @@ pub(crate) fn attend<B: Pl2MapBackend>(
 /// of the queries attends to block g of the keys only. One batched matrix product
 /// instead of one small product per image.
 pub(crate) fn attend_grouped<B: Pl2MapBackend>(
+    q: Tensor<B, 2>,
+    k: Tensor<B, 2>,
+    v: Tensor<B, 2>,
+    heads: usize,
+    groups: usize,
+) -> Tensor<B, 2> {
+    // One operation where the backend has a kernel (Flex: attention_kernel.rs).
+    if let Some(out) = B::multi_head_attention(
+        q.clone().into_primitive().tensor(),
+        k.clone().into_primitive().tensor(),
+        v.clone().into_primitive().tensor(),
+        heads,
+        groups,
+    ) {
+        return Tensor::from_primitive(TensorPrimitive::Float(out));
+    }
+    attend_composed(q, k, v, heads, groups)
+}
+
+/// [`attend_grouped`] as burn's operations (backends without a kernel, and the
+/// kernel's reference in tests).
+pub(crate) fn attend_composed<B: Pl2MapBackend>(
     q: Tensor<B, 2>,
     k: Tensor<B, 2>,
     v: Tensor<B, 2>,
@@ -146,5 +168,49 @@ mod tests {
             want.extend(naive(&q[qs], &k[ks.clone()], &v[ks], nq, nk, d, heads));
         }
         assert_close(&values(&got), &want, 1e-5);
+    }
+
+    /// The Flex kernel (attention_kernel.rs) against burn's composed operations: the
+    /// output and the gradients of q, k and v, on operands that are row slices of larger
+    /// tensors (as the graph network passes them), several images and heads. They are
+    /// the same operations on the same values, so the results are equal bit for bit.
+    #[test]
+    fn the_kernel_matches_the_composed_path() {
+        use crate::testutil::AD;
+        let (g, nq, nk, d, heads) = (2, 37, 70, 16, 4);
+        let rows = g * (nq + nk);
+        let x = pseudo(rows * d, 11).iter().map(|v| 2.0 * v).collect::<Vec<_>>();
+        let w = pseudo(g * nq * d, 12);
+        let run = |kernel: bool| {
+            let xt = tensor::<AD, 2>(x.clone(), [rows, d]).require_grad();
+            // q: the first g * nq rows; k and v: the rest (k negated so they differ).
+            let q = xt.clone().narrow(0, 0, g * nq);
+            let k = xt.clone().narrow(0, g * nq, g * nk).neg();
+            let v = xt.clone().narrow(0, g * nq, g * nk).mul_scalar(0.5);
+            let out = if kernel {
+                attend_grouped(q, k, v, heads, g)
+            } else {
+                attend_composed(q, k, v, heads, g)
+            };
+            let loss = (out.clone() * tensor::<AD, 2>(w.clone(), [g * nq, d])).sum();
+            let grads = loss.backward();
+            (values(&out), values(&xt.grad(&grads).unwrap()))
+        };
+        let (out_kernel, grad_kernel) = run(true);
+        let (out_composed, grad_composed) = run(false);
+        assert_eq!(out_kernel, out_composed);
+        assert_eq!(grad_kernel, grad_composed);
+        // And without autodiff.
+        let plain = |kernel: bool| {
+            let q = tensor::<B, 2>(x[..g * nq * d].to_vec(), [g * nq, d]);
+            let k = tensor::<B, 2>(x[g * nq * d..].to_vec(), [g * nk, d]);
+            let out = if kernel {
+                attend_grouped(q, k.clone(), k, heads, g)
+            } else {
+                attend_composed(q, k.clone(), k, heads, g)
+            };
+            values(&out)
+        };
+        assert_eq!(plain(true), plain(false));
     }
 }

@@ -7,6 +7,7 @@
 //! dx = y * (dy - sum(dy * y)) from the saved output y. This cut a CPU training step by
 //! about a fifth (see the crate's benchmark).
 
+use crate::attention_kernel;
 use burn::backend::Autodiff;
 use burn::backend::autodiff::checkpoint::base::Checkpointer;
 use burn::backend::autodiff::checkpoint::strategy::CheckpointStrategy;
@@ -26,10 +27,74 @@ pub trait Pl2MapBackend: Backend {
         let last = x.shape().num_dims() - 1;
         Self::softmax(x, last)
     }
+
+    /// Multi-head attention as one operation (`attention.rs`, `attend_grouped`), where
+    /// the backend has a kernel for it; None means "compose burn's operations".
+    fn multi_head_attention(
+        q: FloatTensor<Self>,
+        k: FloatTensor<Self>,
+        v: FloatTensor<Self>,
+        heads: usize,
+        groups: usize,
+    ) -> Option<FloatTensor<Self>> {
+        Self::attention_forward(q, k, v, heads, groups).map(|(out, _)| out)
+    }
+
+    /// The kernel's forward pass: the output and what its backward pass needs
+    /// (scaled queries, keys, values, probabilities). None: no kernel.
+    fn attention_forward(
+        _q: FloatTensor<Self>,
+        _k: FloatTensor<Self>,
+        _v: FloatTensor<Self>,
+        _heads: usize,
+        _groups: usize,
+    ) -> Option<(FloatTensor<Self>, [FloatTensor<Self>; 4])> {
+        None
+    }
+
+    /// The kernel's backward pass: the gradients of q, k and v from the output's
+    /// gradient. Only called with what this backend's `attention_forward` saved; None
+    /// where the saved tensors do not fit together.
+    fn attention_backward(
+        _saved: &[FloatTensor<Self>; 4],
+        _grad: FloatTensor<Self>,
+        _heads: usize,
+        _groups: usize,
+    ) -> Option<[FloatTensor<Self>; 3]> {
+        None
+    }
 }
 
 impl Pl2MapBackend for burn::backend::Flex {
     const HOST_MEMORY: bool = true;
+
+    fn attention_forward(
+        q: FloatTensor<Self>,
+        k: FloatTensor<Self>,
+        v: FloatTensor<Self>,
+        heads: usize,
+        groups: usize,
+    ) -> Option<(FloatTensor<Self>, [FloatTensor<Self>; 4])> {
+        let (out, saved) = attention_kernel::forward(&q, &k, &v, heads, groups)?;
+        Some((out, [saved.q_scaled, saved.k, saved.v, saved.probs]))
+    }
+
+    fn attention_backward(
+        saved: &[FloatTensor<Self>; 4],
+        grad: FloatTensor<Self>,
+        heads: usize,
+        groups: usize,
+    ) -> Option<[FloatTensor<Self>; 3]> {
+        let [q_scaled, k, v, probs] = saved.clone();
+        let saved = attention_kernel::Saved {
+            q_scaled,
+            k,
+            v,
+            probs,
+        };
+        let (dq, dk, dv) = attention_kernel::backward(&saved, &grad, heads, groups)?;
+        Some([dq, dk, dv])
+    }
 }
 
 #[cfg(feature = "ndarray")]
@@ -57,7 +122,59 @@ impl<B: Backend> Backward<B, 1> for SoftmaxLast {
     }
 }
 
+/// The attention kernel's recorded operation (parents q, k, v).
+#[derive(Debug)]
+struct Attention;
+
+impl<B: Pl2MapBackend> Backward<B, 3> for Attention {
+    /// What the inner backend's forward saved, heads, groups, and the shapes of q, k, v
+    /// (for zero gradients, should the saved tensors ever not fit).
+    type State = ([B::FloatTensorPrimitive; 4], usize, usize);
+
+    fn backward(self, ops: Ops<Self::State, 3>, grads: &mut Gradients, _: &mut Checkpointer) {
+        let grad = grads.consume::<B>(&ops.node);
+        let (saved, heads, groups) = ops.state;
+        let computed = B::attention_backward(&saved, grad, heads, groups);
+        // `attention_forward` of the same backend made `saved`, so the kernel's own
+        // checks pass; if they ever did not, the parents get no gradient from here
+        // rather than a wrong one.
+        if let Some(g) = computed {
+            for (parent, g) in ops.parents.iter().zip(g) {
+                if let Some(node) = parent {
+                    grads.register::<B>(node.id, g);
+                }
+            }
+        }
+    }
+}
+
 impl<B: Pl2MapBackend, C: CheckpointStrategy> Pl2MapBackend for Autodiff<B, C> {
+    fn multi_head_attention(
+        q: FloatTensor<Self>,
+        k: FloatTensor<Self>,
+        v: FloatTensor<Self>,
+        heads: usize,
+        groups: usize,
+    ) -> Option<FloatTensor<Self>> {
+        let (out, saved) = B::attention_forward(
+            q.primitive.clone(),
+            k.primitive.clone(),
+            v.primitive.clone(),
+            heads,
+            groups,
+        )?;
+        Some(
+            match Attention
+                .prepare::<C>([q.node.clone(), k.node.clone(), v.node.clone()])
+                .compute_bound()
+                .stateful()
+            {
+                OpsKind::Tracked(prep) => prep.finish((saved, heads, groups), out),
+                OpsKind::UnTracked(prep) => prep.finish(out),
+            },
+        )
+    }
+
     fn softmax_last(x: FloatTensor<Self>) -> FloatTensor<Self> {
         match SoftmaxLast
             .prepare::<C>([x.node.clone()])

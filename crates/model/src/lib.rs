@@ -21,6 +21,7 @@
 
 pub mod adam;
 pub mod attention;
+mod attention_kernel;
 pub mod backend;
 pub mod bench;
 pub mod config;

@@ -1,0 +1,405 @@
+//! Multi-head attention on burn's Flex CPU backend as one operation (forward and backward).
+//!
+//! Composed from burn's operations, attention over N = 1152 tokens (the graph network at
+//! 1024 keypoints and 128 lines) spent about a sixth of a CPU training step in
+//! burn-flex's `FlexTensor::empty`: every matrix product's output is a zeroed byte buffer
+//! that is then copied into a newly aligned one, page faults included, and the score
+//! tensors are 4 x N x N floats (16 MiB). Here the products write into buffers made once
+//! per operation (`Bytes::from_elems`, no copy), the per-head operands are read in place
+//! through their strides instead of being made contiguous, and the softmax backward is
+//! three passes instead of four operations with their buffers.
+//!
+//! The arithmetic is the composed path's operation for operation: the same `gemm` calls
+//! on the same operands (burn-flex's `matmul` is `gemm` with alpha 0 and beta 1), burn-flex's
+//! own softmax, scalar multiply and last-dimension sum, and the same element-wise
+//! formulas, so results equal the composed path's (test `matches_the_composed_path`).
+//! Every task is a fixed block (one image and head), so results never depend on the
+//! number of threads.
+
+use burn::backend::Flex;
+use burn::tensor::ops::FloatTensorOps;
+use burn::tensor::{Bytes, DType, Scalar, Shape};
+use burn_flex::{FlexTensor, Layout};
+use rayon::prelude::*;
+
+/// A 2-D f32 operand read in place: storage, first element, (row, column) strides.
+#[derive(Clone, Copy)]
+struct View<'a> {
+    data: &'a [f32],
+    offset: usize,
+    rows: usize,
+    cols: usize,
+    row_stride: usize,
+    col_stride: usize,
+}
+
+impl<'a> View<'a> {
+    /// None unless `t` is a 2-D f32 tensor with non-negative strides inside its storage.
+    fn of(t: &'a FlexTensor) -> Option<Self> {
+        let layout = t.layout();
+        let shape = layout.shape();
+        if t.dtype() != DType::F32 || shape.num_dims() != 2 {
+            return None;
+        }
+        let strides = layout.strides();
+        let (row_stride, col_stride) = (
+            usize::try_from(strides[0]).ok()?,
+            usize::try_from(strides[1]).ok()?,
+        );
+        let view = View {
+            data: t.storage::<f32>(),
+            offset: layout.start_offset(),
+            rows: shape[0],
+            cols: shape[1],
+            row_stride,
+            col_stride,
+        };
+        let fits = view.rows == 0
+            || view.cols == 0
+            || view.offset + (view.rows - 1) * row_stride + (view.cols - 1) * col_stride
+                < view.data.len();
+        fits.then_some(view)
+    }
+}
+
+/// A strided matrix operand of one product: first element and (row, column) strides.
+#[derive(Clone, Copy)]
+struct Operand {
+    ptr: *const f32,
+    row_stride: usize,
+    col_stride: usize,
+}
+
+/// dst [m, n] (row-major) = lhs [m, k] x rhs [k, n], computed by the calling thread as
+/// burn-flex's `matmul` computes it (alpha 0, beta 1: every element of dst is written,
+/// none is read, for k > 0).
+///
+/// SAFETY: dst points to m x n writable elements; lhs reaches m x k and rhs k x n valid
+/// elements through their strides; m, n, k > 0.
+unsafe fn product(dst: *mut f32, m: usize, n: usize, k: usize, lhs: Operand, rhs: Operand) {
+    unsafe {
+        gemm::gemm(
+            m,
+            n,
+            k,
+            dst,
+            1,
+            n as isize,
+            false,
+            lhs.ptr,
+            lhs.col_stride as isize,
+            lhs.row_stride as isize,
+            rhs.ptr,
+            rhs.col_stride as isize,
+            rhs.row_stride as isize,
+            0.0,
+            1.0,
+            false,
+            false,
+            false,
+            gemm::Parallelism::None,
+        );
+    }
+}
+
+/// Raw operand pointers may cross to the rayon tasks: every task only reads them.
+#[derive(Clone, Copy)]
+struct Shared(Operand);
+unsafe impl Send for Shared {}
+unsafe impl Sync for Shared {}
+
+/// `blocks` products of `m x n` each into one new buffer, block b written by
+/// `product_b(b, dst)` (one task per block: the split never depends on the threads).
+/// The buffer is not zeroed first: each product writes every element of its block
+/// (about a twentieth of a step went to zeroing buffers about to be overwritten).
+///
+/// SAFETY: `product_b(b, dst)` must write all m x n elements at dst (a `product` call
+/// with that shape and m, n, k > 0 does).
+unsafe fn block_products(
+    blocks: usize,
+    m: usize,
+    n: usize,
+    product_b: impl Fn(usize, *mut f32) + Sync,
+) -> Vec<f32> {
+    let len = blocks * m * n;
+    let mut out: Vec<f32> = Vec::with_capacity(len);
+    let base = SendPtr(out.as_mut_ptr());
+    (0..blocks).into_par_iter().for_each(|b| {
+        let base = &base;
+        // Blocks are disjoint ranges of the allocation.
+        product_b(b, unsafe { base.0.add(b * m * n) });
+    });
+    // SAFETY: every block, so every element, was written above.
+    unsafe { out.set_len(len) };
+    out
+}
+
+struct SendPtr(*mut f32);
+unsafe impl Send for SendPtr {}
+unsafe impl Sync for SendPtr {}
+
+fn tensor(values: Vec<f32>, shape: Vec<usize>) -> FlexTensor {
+    FlexTensor::new(
+        Bytes::from_elems(values),
+        Layout::contiguous(Shape::from(shape)),
+        DType::F32,
+    )
+}
+
+/// The sizes of one call: `groups` images of nq queries and nk keys, `heads` heads of dk.
+#[derive(Clone, Copy, Debug)]
+struct Dims {
+    groups: usize,
+    heads: usize,
+    nq: usize,
+    nk: usize,
+    d: usize,
+    dk: usize,
+}
+
+impl Dims {
+    fn of(q: &View<'_>, k: &View<'_>, v: &View<'_>, heads: usize, groups: usize) -> Option<Self> {
+        let d = q.cols;
+        let ok = heads > 0
+            && groups > 0
+            && d.is_multiple_of(heads)
+            && k.cols == d
+            && v.cols == d
+            && k.rows == v.rows
+            && q.rows.is_multiple_of(groups)
+            && k.rows.is_multiple_of(groups)
+            && q.rows > 0
+            && k.rows > 0;
+        ok.then(|| Dims {
+            groups,
+            heads,
+            nq: q.rows / groups,
+            nk: k.rows / groups,
+            d,
+            dk: d / heads,
+        })
+    }
+
+    fn blocks(&self) -> usize {
+        self.groups * self.heads
+    }
+
+    /// Head `h` of image `g` of a [groups * rows, d] view: a [rows, dk] operand.
+    fn head(&self, t: &View<'_>, rows: usize, block: usize) -> Operand {
+        let (g, h) = (block / self.heads, block % self.heads);
+        Operand {
+            ptr: t.data[t.offset + g * rows * t.row_stride + h * self.dk * t.col_stride..]
+                .as_ptr(),
+            row_stride: t.row_stride,
+            col_stride: t.col_stride,
+        }
+    }
+
+    /// [blocks, rows, dk] (block = image * heads + head) back to [groups * rows, d].
+    fn merge_heads(&self, per_head: &[f32], rows: usize) -> Vec<f32> {
+        let mut out = vec![0.0f32; self.groups * rows * self.d];
+        for block in 0..self.blocks() {
+            let (g, h) = (block / self.heads, block % self.heads);
+            for r in 0..rows {
+                let src = &per_head[(block * rows + r) * self.dk..][..self.dk];
+                out[(g * rows + r) * self.d + h * self.dk..][..self.dk].copy_from_slice(src);
+            }
+        }
+        out
+    }
+}
+
+fn transposed(o: Operand) -> Operand {
+    Operand {
+        row_stride: o.col_stride,
+        col_stride: o.row_stride,
+        ..o
+    }
+}
+
+fn dense(data: &[f32], cols: usize) -> Operand {
+    Operand {
+        ptr: data.as_ptr(),
+        row_stride: cols,
+        col_stride: 1,
+    }
+}
+
+/// What the forward pass keeps for the backward pass.
+pub(crate) struct Saved {
+    /// q / sqrt(dk), contiguous [groups * nq, d].
+    pub q_scaled: FlexTensor,
+    pub k: FlexTensor,
+    pub v: FlexTensor,
+    /// softmax(q k^T / sqrt(dk)), [groups, heads, nq, nk].
+    pub probs: FlexTensor,
+}
+
+/// Attention of `q` ([groups * nq, d]) over `k`, `v` ([groups * nk, d]) with `heads`
+/// heads, image g's queries attending to image g's keys only: the output
+/// [groups * nq, d] and what the backward pass needs. None when the operands are not
+/// plain f32 matrices of matching sizes (the caller then composes burn's operations).
+pub(crate) fn forward(
+    q: &FlexTensor,
+    k: &FlexTensor,
+    v: &FlexTensor,
+    heads: usize,
+    groups: usize,
+) -> Option<(FlexTensor, Saved)> {
+    let (qv, kv, vv) = (View::of(q)?, View::of(k)?, View::of(v)?);
+    let dims = Dims::of(&qv, &kv, &vv, heads, groups)?;
+    let Dims { nq, nk, dk, .. } = dims;
+    // The composed path scales the queries (N x D multiplications, not N x N).
+    let scale = 1.0 / (dk as f64).sqrt();
+    let q_scaled = Flex::float_mul_scalar(q.clone(), Scalar::Float(scale)).to_contiguous();
+    let qs = View::of(&q_scaled)?;
+
+    let (qs_ops, k_ops): (Vec<Shared>, Vec<Shared>) = (0..dims.blocks())
+        .map(|b| {
+            (
+                Shared(dims.head(&qs, nq, b)),
+                Shared(transposed(dims.head(&kv, nk, b))),
+            )
+        })
+        .unzip();
+    // SAFETY (here and below): the operands are heads of views checked by View::of and
+    // Dims::of; every product has positive sizes and writes its whole block.
+    let scores = unsafe {
+        block_products(dims.blocks(), nq, nk, |b, dst| {
+            product(dst, nq, nk, dk, qs_ops[b].0, k_ops[b].0)
+        })
+    };
+    let probs = <Flex as crate::Pl2MapBackend>::softmax_last(tensor(
+        scores,
+        vec![dims.groups, heads, nq, nk],
+    ))
+    .to_contiguous();
+    let p = probs.as_slice::<f32>()?;
+
+    let v_ops: Vec<Shared> = (0..dims.blocks())
+        .map(|b| Shared(dims.head(&vv, nk, b)))
+        .collect();
+    let per_head = unsafe {
+        block_products(dims.blocks(), nq, dk, |b, dst| {
+            product(dst, nq, dk, nk, dense(&p[b * nq * nk..], nk), v_ops[b].0)
+        })
+    };
+    let output = tensor(dims.merge_heads(&per_head, nq), vec![dims.groups * nq, dims.d]);
+    Some((
+        output,
+        Saved {
+            q_scaled,
+            k: k.clone(),
+            v: v.clone(),
+            probs,
+        },
+    ))
+}
+
+/// The gradients of the queries, keys and values from the output's gradient `grad`.
+/// None when the saved tensors do not fit together (not produced by [`forward`]).
+pub(crate) fn backward(
+    saved: &Saved,
+    grad: &FlexTensor,
+    heads: usize,
+    groups: usize,
+) -> Option<(FlexTensor, FlexTensor, FlexTensor)> {
+    let (qs, kv, vv, gv) = (
+        View::of(&saved.q_scaled)?,
+        View::of(&saved.k)?,
+        View::of(&saved.v)?,
+        View::of(grad)?,
+    );
+    let dims = Dims::of(&qs, &kv, &vv, heads, groups)?;
+    let Dims { nq, nk, dk, .. } = dims;
+    if gv.rows != qs.rows || gv.cols != dims.d {
+        return None;
+    }
+    let probs = saved.probs.as_slice::<f32>()?;
+    if probs.len() != dims.blocks() * nq * nk {
+        return None;
+    }
+    let block_ops = |t: &View<'_>, rows: usize| -> Vec<Shared> {
+        (0..dims.blocks())
+            .map(|b| Shared(dims.head(t, rows, b)))
+            .collect()
+    };
+    let (q_ops, k_ops, v_ops, g_ops) = (
+        block_ops(&qs, nq),
+        block_ops(&kv, nk),
+        block_ops(&vv, nk),
+        block_ops(&gv, nq),
+    );
+
+    // Through the second product (P V): dP = dO V^T.
+    let mut dp = unsafe {
+        block_products(dims.blocks(), nq, nk, |b, dst| {
+            product(dst, nq, nk, dk, g_ops[b].0, transposed(v_ops[b].0))
+        })
+    };
+    // Through the softmax (backend.rs, SoftmaxLast): dS = (dP - sum(dP * P)) * P, with
+    // burn-flex's own sum over the last dimension.
+    let chunk = 64 * nk;
+    let weighted: Vec<f32> = dp
+        .par_iter()
+        .with_min_len(chunk)
+        .zip(probs.par_iter())
+        .map(|(g, y)| g * y)
+        .collect();
+    let dot = Flex::float_sum_dim(tensor(weighted, vec![probs.len() / nk, nk]), 1).to_contiguous();
+    let dot = dot.as_slice::<f32>()?;
+    dp.par_chunks_mut(chunk)
+        .zip(probs.par_chunks(chunk).zip(dot.par_chunks(64)))
+        .for_each(|(g, (y, dot))| {
+            for ((g, y), dot) in g.chunks_exact_mut(nk).zip(y.chunks_exact(nk)).zip(dot) {
+                for (g, y) in g.iter_mut().zip(y) {
+                    *g = (*g - dot) * y;
+                }
+            }
+        });
+    let ds = &dp;
+
+    // Through the first product (Q' K^T): dQ' = dS K, d(K^T) = Q'^T dS.
+    let dq_heads = unsafe {
+        block_products(dims.blocks(), nq, dk, |b, dst| {
+            product(dst, nq, dk, nk, dense(&ds[b * nq * nk..], nk), k_ops[b].0)
+        })
+    };
+    let dkt = unsafe {
+        block_products(dims.blocks(), dk, nk, |b, dst| {
+            product(dst, dk, nk, nq, transposed(q_ops[b].0), dense(&ds[b * nq * nk..], nk))
+        })
+    };
+    // Through P V: dV = P^T dO.
+    let dv_heads = unsafe {
+        block_products(dims.blocks(), nk, dk, |b, dst| {
+            product(
+                dst,
+                nk,
+                dk,
+                nq,
+                transposed(dense(&probs[b * nq * nk..], nk)),
+                g_ops[b].0,
+            )
+        })
+    };
+
+    // d(K^T) [blocks, dk, nk] back to [groups * nk, d].
+    let mut dk_rows = vec![0.0f32; dims.groups * nk * dims.d];
+    for b in 0..dims.blocks() {
+        let (g, h) = (b / heads, b % heads);
+        for c in 0..dk {
+            for j in 0..nk {
+                dk_rows[(g * nk + j) * dims.d + h * dk + c] = dkt[(b * dk + c) * nk + j];
+            }
+        }
+    }
+    let scale = 1.0 / (dk as f64).sqrt();
+    let dq = Flex::float_mul_scalar(
+        tensor(dims.merge_heads(&dq_heads, nq), vec![dims.groups * nq, dims.d]),
+        Scalar::Float(scale),
+    );
+    let dk_t = tensor(dk_rows, vec![dims.groups * nk, dims.d]);
+    let dv = tensor(dims.merge_heads(&dv_heads, nk), vec![dims.groups * nk, dims.d]);
+    Some((dq, dk_t, dv))
+}
