@@ -1,0 +1,100 @@
+//! How fast `gemm` (the crate burn-flex's matrix products use) multiplies the shapes of
+//! the main job's heads on this machine, on 1 thread and on all of the rayon pool's:
+//! the bound on a training step made of these products (docs/performance.md, "The main
+//! job's step").
+//!
+//! cargo run --release -p model --example gemm_rate
+
+use std::time::Instant;
+
+/// One product shape: m x k times k x n, and whether each operand is read transposed
+/// (as the backward pass reads them).
+struct Shape {
+    what: &'static str,
+    m: usize,
+    k: usize,
+    n: usize,
+    lhs_transposed: bool,
+    rhs_transposed: bool,
+}
+
+fn seconds_per_product(s: &Shape, parallelism: gemm::Parallelism) -> f64 {
+    let a = vec![0.5f32; s.m * s.k];
+    let b = vec![0.25f32; s.k * s.n];
+    let mut c = vec![0.0f32; s.m * s.n];
+    // (column stride, row stride) of each operand in its row-major storage.
+    let (lhs_cs, lhs_rs) = if s.lhs_transposed {
+        (s.m as isize, 1)
+    } else {
+        (1, s.k as isize)
+    };
+    let (rhs_cs, rhs_rs) = if s.rhs_transposed {
+        (s.k as isize, 1)
+    } else {
+        (1, s.n as isize)
+    };
+    let run = |c: &mut [f32]| {
+        // SAFETY: a, b and c hold m x k, k x n and m x n elements, reached through the
+        // strides above.
+        unsafe {
+            gemm::gemm(
+                s.m,
+                s.n,
+                s.k,
+                c.as_mut_ptr(),
+                1,
+                s.n as isize,
+                false,
+                a.as_ptr(),
+                lhs_cs,
+                lhs_rs,
+                b.as_ptr(),
+                rhs_cs,
+                rhs_rs,
+                0.0,
+                1.0,
+                false,
+                false,
+                false,
+                parallelism,
+            )
+        }
+    };
+    for _ in 0..10 {
+        run(&mut c);
+    }
+    let reps = 200;
+    let start = Instant::now();
+    for _ in 0..reps {
+        run(&mut c);
+    }
+    start.elapsed().as_secs_f64() / reps as f64
+}
+
+fn main() {
+    let shapes = [
+        ("point head, hidden layer", 512, 512, 512, false, false),
+        ("  its input gradient", 512, 512, 512, false, true),
+        ("  its weight gradient", 512, 512, 512, true, false),
+        ("line head, hidden layer", 192, 512, 512, false, false),
+        ("  its input gradient", 192, 512, 512, false, true),
+        ("  its weight gradient", 512, 192, 512, true, false),
+    ];
+    let threads = rayon::current_num_threads();
+    println!("| product | m x k x n | 1 thread GFLOP/s | {threads} threads GFLOP/s |");
+    println!("|---|---|---:|---:|");
+    for (what, m, k, n, lhs_transposed, rhs_transposed) in shapes {
+        let s = Shape {
+            what,
+            m,
+            k,
+            n,
+            lhs_transposed,
+            rhs_transposed,
+        };
+        let flop = 2.0 * (m * k * n) as f64;
+        let one = flop / seconds_per_product(&s, gemm::Parallelism::None) / 1e9;
+        let all = flop / seconds_per_product(&s, gemm::Parallelism::Rayon(0)) / 1e9;
+        println!("| {} | {m} x {k} x {n} | {one:.0} | {all:.0} |", s.what);
+    }
+}
