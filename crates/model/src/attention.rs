@@ -179,7 +179,10 @@ mod tests {
         use crate::testutil::AD;
         let (g, nq, nk, d, heads) = (2, 37, 70, 16, 4);
         let rows = g * (nq + nk);
-        let x = pseudo(rows * d, 11).iter().map(|v| 2.0 * v).collect::<Vec<_>>();
+        let x = pseudo(rows * d, 11)
+            .iter()
+            .map(|v| 2.0 * v)
+            .collect::<Vec<_>>();
         let w = pseudo(g * nq * d, 12);
         let run = |kernel: bool| {
             let xt = tensor::<AD, 2>(x.clone(), [rows, d]).require_grad();

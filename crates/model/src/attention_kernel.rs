@@ -188,8 +188,7 @@ impl Dims {
     fn head(&self, t: &View<'_>, rows: usize, block: usize) -> Operand {
         let (g, h) = (block / self.heads, block % self.heads);
         Operand {
-            ptr: t.data[t.offset + g * rows * t.row_stride + h * self.dk * t.col_stride..]
-                .as_ptr(),
+            ptr: t.data[t.offset + g * rows * t.row_stride + h * self.dk * t.col_stride..].as_ptr(),
             row_stride: t.row_stride,
             col_stride: t.col_stride,
         }
@@ -284,7 +283,10 @@ pub(crate) fn forward(
             product(dst, nq, dk, nk, dense(&p[b * nq * nk..], nk), v_ops[b].0)
         })
     };
-    let output = tensor(dims.merge_heads(&per_head, nq), vec![dims.groups * nq, dims.d]);
+    let output = tensor(
+        dims.merge_heads(&per_head, nq),
+        vec![dims.groups * nq, dims.d],
+    );
     Some((
         output,
         Saved {
@@ -367,7 +369,14 @@ pub(crate) fn backward(
     };
     let dkt = unsafe {
         block_products(dims.blocks(), dk, nk, |b, dst| {
-            product(dst, dk, nk, nq, transposed(q_ops[b].0), dense(&ds[b * nq * nk..], nk))
+            product(
+                dst,
+                dk,
+                nk,
+                nq,
+                transposed(q_ops[b].0),
+                dense(&ds[b * nq * nk..], nk),
+            )
         })
     };
     // Through P V: dV = P^T dO.
@@ -396,10 +405,16 @@ pub(crate) fn backward(
     }
     let scale = 1.0 / (dk as f64).sqrt();
     let dq = Flex::float_mul_scalar(
-        tensor(dims.merge_heads(&dq_heads, nq), vec![dims.groups * nq, dims.d]),
+        tensor(
+            dims.merge_heads(&dq_heads, nq),
+            vec![dims.groups * nq, dims.d],
+        ),
         Scalar::Float(scale),
     );
     let dk_t = tensor(dk_rows, vec![dims.groups * nk, dims.d]);
-    let dv = tensor(dims.merge_heads(&dv_heads, nk), vec![dims.groups * nk, dims.d]);
+    let dv = tensor(
+        dims.merge_heads(&dv_heads, nk),
+        vec![dims.groups * nk, dims.d],
+    );
     Some((dq, dk_t, dv))
 }
