@@ -199,6 +199,39 @@ mod tests {
             let grads = loss.backward();
             (values(&out), values(&xt.grad(&grads).unwrap()))
         };
+        // The kernel must have run (not fallen back to the composed path) on these
+        // operands, with and without autodiff.
+        let xt = tensor::<AD, 2>(x.clone(), [rows, d]).require_grad();
+        let part =
+            |start: usize, len: usize| xt.clone().narrow(0, start, len).into_primitive().tensor();
+        assert!(
+            AD::multi_head_attention(
+                part(0, g * nq),
+                part(g * nq, g * nk),
+                part(g * nq, g * nk),
+                heads,
+                g
+            )
+            .is_some()
+        );
+        let plain = tensor::<B, 2>(x.clone(), [rows, d]);
+        let part = |start: usize, len: usize| {
+            plain
+                .clone()
+                .narrow(0, start, len)
+                .into_primitive()
+                .tensor()
+        };
+        assert!(
+            B::multi_head_attention(
+                part(0, g * nq),
+                part(g * nq, g * nk),
+                part(g * nq, g * nk),
+                heads,
+                g
+            )
+            .is_some()
+        );
         let (out_kernel, grad_kernel) = run(true);
         let (out_composed, grad_composed) = run(false);
         assert_eq!(out_kernel, out_composed);
