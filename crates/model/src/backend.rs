@@ -1,4 +1,4 @@
-//! The backends the network runs on, and its one custom operation.
+//! The backends the network runs on, and its two custom operations.
 //!
 //! Attention spends most of its non-matrix-product time in the softmax. Burn's autodiff
 //! has no softmax operation of its own: it records max, sub, exp, sum and div, keeps every
@@ -6,6 +6,11 @@
 //! operation: the forward is the inner backend's own (fused on Flex) and the backward is
 //! dx = y * (dy - sum(dy * y)) from the saved output y. This cut a CPU training step by
 //! about a fifth (see the crate's benchmark).
+//!
+//! The second is multi-head attention as a whole (`multi_head_attention`), for backends
+//! with a kernel for it: on Flex `attention_kernel.rs`, which computes exactly what the
+//! composed operations compute with fewer buffers (docs/performance.md, "Attention as one
+//! operation"); the others return None and `attention.rs` composes burn's operations.
 
 use crate::attention_kernel;
 use burn::backend::Autodiff;

@@ -8,7 +8,7 @@
 //!   backward and an Adam step.
 //!
 //! Backends: the network is generic over [`Pl2MapBackend`], a burn `Backend` with a fused
-//! softmax (see `backend.rs`), implemented for Flex, NdArray, CUDA and their `Autodiff`
+//! softmax and, on Flex, an attention kernel (see `backend.rs`), implemented for Flex, NdArray, CUDA and their `Autodiff`
 //! wrappers. [`CpuBackend`] (burn's Flex backend) is the default; the `cuda` feature adds
 //! [`CudaBackend`] and the `ndarray` feature burn's NdArray backend (kept for comparison).
 //! [`Device`] is how runs choose between CPU and CUDA (`--device cpu|cuda[:N]`).
