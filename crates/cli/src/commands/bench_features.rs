@@ -63,19 +63,17 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let dir = match args.images {
         Some(d) => d,
         None => {
-            // The sample data as the tests find it: PL2MAP_SAMPLE_DATA, else the default
-            // location README.md, "Tests", names (relative to the repository root).
+            // The sample data as the tests find it: PL2MAP_SAMPLE_DATA (which `cargo run`
+            // sets to README.md's default location, .cargo/config.toml).
             let d = std::env::var_os("PL2MAP_SAMPLE_DATA")
-                .map(PathBuf::from)
-                .unwrap_or_else(|| PathBuf::from("../shared/data"))
-                .join("7scenes-stairs-mini");
-            if !d.is_dir() {
-                bail!(
-                    "no --images given and no sample frames at {}; try `pl2map synth OUT` and pass --images OUT",
-                    d.display()
-                );
+                .map(|root| PathBuf::from(root).join("7scenes-stairs-mini"))
+                .filter(|d| d.is_dir());
+            match d {
+                Some(d) => d,
+                None => bail!(
+                    "no --images given and no 7scenes-stairs-mini under PL2MAP_SAMPLE_DATA; try `pl2map synth OUT` and pass --images OUT"
+                ),
             }
-            d
         }
     };
     // 7-Scenes keeps its depth maps (`*.depth.png`) next to the colour images.
