@@ -184,6 +184,18 @@ impl Dims {
         self.groups * self.heads
     }
 
+    /// The composed path's score scale, 1 / sqrt(dk), applied to the queries.
+    fn scale(&self) -> Scalar {
+        Scalar::Float(1.0 / (self.dk as f64).sqrt())
+    }
+
+    /// Every block's head of a [groups * rows, d] view (block = image * heads + head).
+    fn heads_of(&self, t: &View<'_>, rows: usize) -> Vec<Shared> {
+        (0..self.blocks())
+            .map(|b| Shared(self.head(t, rows, b)))
+            .collect()
+    }
+
     /// Head `h` of image `g` of a [groups * rows, d] view: a [rows, dk] operand.
     fn head(&self, t: &View<'_>, rows: usize, block: usize) -> Operand {
         let (g, h) = (block / self.heads, block % self.heads);
@@ -224,19 +236,10 @@ fn dense(data: &[f32], cols: usize) -> Operand {
     }
 }
 
-/// What the forward pass keeps for the backward pass.
-pub(crate) struct Saved {
-    /// q / sqrt(dk), contiguous [groups * nq, d].
-    pub q_scaled: FlexTensor,
-    pub k: FlexTensor,
-    pub v: FlexTensor,
-    /// softmax(q k^T / sqrt(dk)), [groups, heads, nq, nk].
-    pub probs: FlexTensor,
-}
-
 /// Attention of `q` ([groups * nq, d]) over `k`, `v` ([groups * nk, d]) with `heads`
 /// heads, image g's queries attending to image g's keys only: the output
-/// [groups * nq, d] and what the backward pass needs. None when the operands are not
+/// [groups * nq, d] and what the backward pass needs: `[q / sqrt(dk) (contiguous), k, v,
+/// softmax(q k^T / sqrt(dk)) ([groups, heads, nq, nk])]`. None when the operands are not
 /// plain f32 matrices of matching sizes (the caller then composes burn's operations).
 pub(crate) fn forward(
     q: &FlexTensor,
@@ -244,28 +247,20 @@ pub(crate) fn forward(
     v: &FlexTensor,
     heads: usize,
     groups: usize,
-) -> Option<(FlexTensor, Saved)> {
+) -> Option<(FlexTensor, [FlexTensor; 4])> {
     let (qv, kv, vv) = (View::of(q)?, View::of(k)?, View::of(v)?);
     let dims = Dims::of(&qv, &kv, &vv, heads, groups)?;
     let Dims { nq, nk, dk, .. } = dims;
     // The composed path scales the queries (N x D multiplications, not N x N).
-    let scale = 1.0 / (dk as f64).sqrt();
-    let q_scaled = Flex::float_mul_scalar(q.clone(), Scalar::Float(scale)).to_contiguous();
+    let q_scaled = Flex::float_mul_scalar(q.clone(), dims.scale()).to_contiguous();
     let qs = View::of(&q_scaled)?;
 
-    let (qs_ops, k_ops): (Vec<Shared>, Vec<Shared>) = (0..dims.blocks())
-        .map(|b| {
-            (
-                Shared(dims.head(&qs, nq, b)),
-                Shared(transposed(dims.head(&kv, nk, b))),
-            )
-        })
-        .unzip();
+    let (qs_ops, k_ops) = (dims.heads_of(&qs, nq), dims.heads_of(&kv, nk));
     // SAFETY (here and below): the operands are heads of views checked by View::of and
     // Dims::of; every product has positive sizes and writes its whole block.
     let scores = unsafe {
         block_products(dims.blocks(), nq, nk, |b, dst| {
-            product(dst, nq, nk, dk, qs_ops[b].0, k_ops[b].0)
+            product(dst, nq, nk, dk, qs_ops[b].0, transposed(k_ops[b].0))
         })
     };
     let probs = <Flex as crate::Pl2MapBackend>::softmax_last(tensor(
@@ -275,9 +270,7 @@ pub(crate) fn forward(
     .to_contiguous();
     let p = probs.as_slice::<f32>()?;
 
-    let v_ops: Vec<Shared> = (0..dims.blocks())
-        .map(|b| Shared(dims.head(&vv, nk, b)))
-        .collect();
+    let v_ops = dims.heads_of(&vv, nk);
     let per_head = unsafe {
         block_products(dims.blocks(), nq, dk, |b, dst| {
             product(dst, nq, dk, nk, dense(&p[b * nq * nk..], nk), v_ops[b].0)
@@ -287,29 +280,21 @@ pub(crate) fn forward(
         dims.merge_heads(&per_head, nq),
         vec![dims.groups * nq, dims.d],
     );
-    Some((
-        output,
-        Saved {
-            q_scaled,
-            k: k.clone(),
-            v: v.clone(),
-            probs,
-        },
-    ))
+    Some((output, [q_scaled, k.clone(), v.clone(), probs]))
 }
 
 /// The gradients of the queries, keys and values from the output's gradient `grad`.
-/// None when the saved tensors do not fit together (not produced by [`forward`]).
+/// `saved` is what [`forward`] returned; None when its tensors do not fit together.
 pub(crate) fn backward(
-    saved: &Saved,
+    saved: &[FlexTensor; 4],
     grad: &FlexTensor,
     heads: usize,
     groups: usize,
-) -> Option<(FlexTensor, FlexTensor, FlexTensor)> {
+) -> Option<[FlexTensor; 3]> {
     let (qs, kv, vv, gv) = (
-        View::of(&saved.q_scaled)?,
-        View::of(&saved.k)?,
-        View::of(&saved.v)?,
+        View::of(&saved[0])?,
+        View::of(&saved[1])?,
+        View::of(&saved[2])?,
         View::of(grad)?,
     );
     let dims = Dims::of(&qs, &kv, &vv, heads, groups)?;
@@ -317,20 +302,15 @@ pub(crate) fn backward(
     if gv.rows != qs.rows || gv.cols != dims.d {
         return None;
     }
-    let probs = saved.probs.as_slice::<f32>()?;
+    let probs = saved[3].as_slice::<f32>()?;
     if probs.len() != dims.blocks() * nq * nk {
         return None;
     }
-    let block_ops = |t: &View<'_>, rows: usize| -> Vec<Shared> {
-        (0..dims.blocks())
-            .map(|b| Shared(dims.head(t, rows, b)))
-            .collect()
-    };
     let (q_ops, k_ops, v_ops, g_ops) = (
-        block_ops(&qs, nq),
-        block_ops(&kv, nk),
-        block_ops(&vv, nk),
-        block_ops(&gv, nq),
+        dims.heads_of(&qs, nq),
+        dims.heads_of(&kv, nk),
+        dims.heads_of(&vv, nk),
+        dims.heads_of(&gv, nq),
     );
 
     // Through the second product (P V): dP = dO V^T.
@@ -403,18 +383,17 @@ pub(crate) fn backward(
             }
         }
     }
-    let scale = 1.0 / (dk as f64).sqrt();
     let dq = Flex::float_mul_scalar(
         tensor(
             dims.merge_heads(&dq_heads, nq),
             vec![dims.groups * nq, dims.d],
         ),
-        Scalar::Float(scale),
+        dims.scale(),
     );
     let dk_t = tensor(dk_rows, vec![dims.groups * nk, dims.d]);
     let dv = tensor(
         dims.merge_heads(&dv_heads, nk),
         vec![dims.groups * nk, dims.d],
     );
-    Some((dq, dk_t, dv))
+    Some([dq, dk_t, dv])
 }

@@ -80,8 +80,7 @@ impl Pl2MapBackend for burn::backend::Flex {
         heads: usize,
         groups: usize,
     ) -> Option<(FloatTensor<Self>, [FloatTensor<Self>; 4])> {
-        let (out, saved) = attention_kernel::forward(&q, &k, &v, heads, groups)?;
-        Some((out, [saved.q_scaled, saved.k, saved.v, saved.probs]))
+        attention_kernel::forward(&q, &k, &v, heads, groups)
     }
 
     fn attention_backward(
@@ -90,15 +89,7 @@ impl Pl2MapBackend for burn::backend::Flex {
         heads: usize,
         groups: usize,
     ) -> Option<[FloatTensor<Self>; 3]> {
-        let [q_scaled, k, v, probs] = saved.clone();
-        let saved = attention_kernel::Saved {
-            q_scaled,
-            k,
-            v,
-            probs,
-        };
-        let (dq, dk, dv) = attention_kernel::backward(&saved, &grad, heads, groups)?;
-        Some([dq, dk, dv])
+        attention_kernel::backward(saved, &grad, heads, groups)
     }
 }
 
@@ -132,8 +123,7 @@ impl<B: Backend> Backward<B, 1> for SoftmaxLast {
 struct Attention;
 
 impl<B: Pl2MapBackend> Backward<B, 3> for Attention {
-    /// What the inner backend's forward saved, heads, groups, and the shapes of q, k, v
-    /// (for zero gradients, should the saved tensors ever not fit).
+    /// What the inner backend's forward saved, heads, groups.
     type State = ([B::FloatTensorPrimitive; 4], usize, usize);
 
     fn backward(self, ops: Ops<Self::State, 3>, grads: &mut Gradients, _: &mut Checkpointer) {
