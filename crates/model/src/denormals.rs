@@ -17,9 +17,19 @@
 /// for running training steps in (`pool.install(|| state.step(...))`); burn's matrix
 /// products (gemm) and element-wise operations then run on those threads.
 pub fn flushing_pool() -> Result<rayon::ThreadPool, rayon::ThreadPoolBuildError> {
+    flushing_pool_of(rayon::current_num_threads(), "train")
+}
+
+/// A pool of `threads` flushing threads named `<name>-<i>` (the gradient groups' pools,
+/// `groups.rs`).
+pub fn flushing_pool_of(
+    threads: usize,
+    name: &str,
+) -> Result<rayon::ThreadPool, rayon::ThreadPoolBuildError> {
+    let name = name.to_string();
     rayon::ThreadPoolBuilder::new()
-        .num_threads(rayon::current_num_threads())
-        .thread_name(|i| format!("train-{i}"))
+        .num_threads(threads)
+        .thread_name(move |i| format!("{name}-{i}"))
         .start_handler(|_| flush_denormals_on_this_thread())
         .build()
 }

@@ -30,6 +30,7 @@ pub mod device;
 pub mod dropout;
 pub mod error;
 pub mod graph;
+pub mod groups;
 pub mod heads;
 pub mod import_reference;
 mod init;

@@ -5,13 +5,16 @@ use crate::backend::Pl2MapBackend;
 use crate::config::ModelConfig;
 use crate::dropout::Dropout;
 use crate::error::ModelError;
+use crate::groups::{self, GroupPools};
 use crate::loss::{LossConfig, LossValues, compute_loss};
 use crate::network::Pl2Map;
 use crate::sample::Sample;
 use burn::module::{AutodiffModule, Module};
 use burn::optim::adaptor::OptimizerAdaptor;
 use burn::optim::{AdamConfig, GradientsParams, Optimizer};
+use burn::tensor::Tensor;
 use burn::tensor::backend::AutodiffBackend;
+use std::ops::Range;
 
 /// Adam as the reference runs it (PyTorch defaults: betas 0.9 / 0.999, eps 1e-8, no weight
 /// decay). Burn's own default epsilon is 1e-5.
@@ -64,6 +67,9 @@ pub struct TrainState<B: AutodiffBackend<InnerBackend: Pl2MapBackend> + Pl2MapBa
     model: Option<Pl2Map<B>>,
     pub optimizer: Pl2MapOptimizer<B>,
     pub loss: LossConfig,
+    /// Gradient groups per step (`groups.rs`), and where they run.
+    batch_groups: usize,
+    group_pools: Option<GroupPools>,
 }
 
 impl<B: AutodiffBackend<InnerBackend: Pl2MapBackend> + Pl2MapBackend> TrainState<B> {
@@ -73,6 +79,8 @@ impl<B: AutodiffBackend<InnerBackend: Pl2MapBackend> + Pl2MapBackend> TrainState
             model: Some(model),
             optimizer: new_optimizer(),
             loss,
+            batch_groups: 1,
+            group_pools: None,
         })
     }
 
@@ -108,6 +116,8 @@ impl<B: AutodiffBackend<InnerBackend: Pl2MapBackend> + Pl2MapBackend> TrainState
             model: Some(model),
             optimizer,
             loss,
+            batch_groups: 1,
+            group_pools: None,
         })
     }
 
@@ -129,7 +139,8 @@ impl<B: AutodiffBackend<InnerBackend: Pl2MapBackend> + Pl2MapBackend> TrainState
     /// images of equal size go through the network together (`Pl2Map::forward_batch`).
     /// Dropout masks come from one stream seeded with `dropout_seed`, so a batch of one
     /// is exactly [`TrainState::step`]. Reported losses are the means over the images
-    /// (counts summed).
+    /// (counts summed). With gradient groups ([`TrainState::set_batch_groups`]) each
+    /// group of images takes its own pass and its own dropout stream (group 0 the step's).
     pub fn step_batch(
         &mut self,
         samples: &[Sample],
@@ -140,33 +151,18 @@ impl<B: AutodiffBackend<InnerBackend: Pl2MapBackend> + Pl2MapBackend> TrainState
                 "a step needs at least one image".into(),
             ));
         }
+        let ranges = groups::split(samples.len(), self.batch_groups);
+        if ranges.len() > 1 {
+            return self.step_grouped(samples, &ranges, options);
+        }
         let model = self.model();
-        let device = model
-            .devices()
-            .into_iter()
-            .next()
-            .ok_or_else(|| ModelError::InvalidConfig("network has no parameters".into()))?;
-        let mut inputs = Vec::with_capacity(samples.len());
-        let mut targets = Vec::with_capacity(samples.len());
-        for sample in samples {
-            let t = sample.to_tensors::<B>(&model.config, &device)?;
-            inputs.push(t.input);
-            targets.push(t.targets);
-        }
-        let mut dropout = Dropout::seeded(model.config.dropout, options.dropout_seed);
-        let predictions = model.forward_batch(inputs, &mut dropout);
-        let mut total = None;
-        let mut values = Vec::with_capacity(samples.len());
-        for (prediction, targets) in predictions.iter().zip(&targets) {
-            let terms = compute_loss(prediction, targets, &self.loss, options.progress);
-            values.push(terms.values());
-            if terms.has_gradient {
-                total = Some(match total {
-                    None => terms.total,
-                    Some(t) => t + terms.total,
-                });
-            }
-        }
+        let (values, total) = forward_loss(
+            model,
+            samples,
+            &self.loss,
+            options.progress,
+            options.dropout_seed,
+        )?;
         let losses = LossValues::mean(&values);
         let Some(total) = total else {
             return Ok(StepReport {
@@ -180,17 +176,151 @@ impl<B: AutodiffBackend<InnerBackend: Pl2MapBackend> + Pl2MapBackend> TrainState
         } else {
             total
         };
-        let model = self
-            .model
-            .take()
-            .expect("TrainState holds a model between steps");
-        let grads = GradientsParams::from_grads(total.backward(), &model);
-        self.model = Some(self.optimizer.step(options.learning_rate, model, grads));
+        self.adam_step(options.learning_rate, |model| {
+            GradientsParams::from_grads(total.backward(), model)
+        });
         Ok(StepReport {
             losses,
             updated: true,
         })
     }
+
+    /// Splits every step's images into `groups` gradient groups (`groups.rs`; 1: one
+    /// stacked pass, the default). `threads`: the CPU threads the groups share, each
+    /// group on its own pool, all at once; None runs them one after another on the
+    /// caller's thread (a GPU backend, whose kernels the calling thread only queues).
+    /// Either way the same weights come out: the grouping sets the rounding, the threads
+    /// do not.
+    pub fn set_batch_groups(
+        &mut self,
+        groups: usize,
+        threads: Option<usize>,
+    ) -> Result<(), ModelError> {
+        if groups == 0 {
+            return Err(ModelError::InvalidConfig(
+                "batch_groups must be at least 1".into(),
+            ));
+        }
+        self.batch_groups = groups;
+        self.group_pools = match threads {
+            Some(t) if groups > 1 => Some(GroupPools::new(groups, t)?),
+            _ => None,
+        };
+        Ok(())
+    }
+
+    /// One Adam step with the gradients `grads` gives for the network (which moves
+    /// through the optimiser: burn's optimisers take and return it by value).
+    fn adam_step(&mut self, learning_rate: f64, grads: impl FnOnce(&Pl2Map<B>) -> GradientsParams) {
+        let model = self
+            .model
+            .take()
+            .expect("TrainState holds a model between steps");
+        let grads = grads(&model);
+        self.model = Some(self.optimizer.step(learning_rate, model, grads));
+    }
+
+    fn step_grouped(
+        &mut self,
+        samples: &[Sample],
+        ranges: &[Range<usize>],
+        options: &StepOptions,
+    ) -> Result<StepReport, ModelError> {
+        let model = self.model();
+        let copies: Vec<Pl2Map<B>> = ranges
+            .iter()
+            .map(|_| groups::with_own_leaves(model))
+            .collect();
+        let n = samples.len() as f64;
+        let loss = &self.loss;
+        let work = |g: usize| -> Result<(Vec<LossValues>, Option<GradientsParams>), ModelError> {
+            let copy = &copies[g];
+            let (values, total) = forward_loss(
+                copy,
+                &samples[ranges[g].clone()],
+                loss,
+                options.progress,
+                group_dropout_seed(options.dropout_seed, g),
+            )?;
+            // Each group's share of the batch mean, so that the sum is the mean's gradient.
+            let grads =
+                total.map(|t| GradientsParams::from_grads(t.div_scalar(n).backward(), copy));
+            Ok((values, grads))
+        };
+        let results = match &self.group_pools {
+            Some(pools) => pools.run(ranges.len(), work),
+            None => (0..ranges.len()).map(work).collect(),
+        };
+        // The copies share the weights' buffers: dropped now, Adam updates them in place
+        // (adam.rs) instead of copying each one first.
+        drop(copies);
+        let mut values = Vec::with_capacity(samples.len());
+        let mut parts = Vec::with_capacity(ranges.len());
+        for result in results {
+            let (v, grads) = result?;
+            values.extend(v);
+            parts.extend(grads);
+        }
+        let losses = LossValues::mean(&values);
+        if parts.is_empty() {
+            return Ok(StepReport {
+                losses,
+                updated: false,
+            });
+        }
+        self.adam_step(options.learning_rate, |model| {
+            groups::sum_gradients::<B, _>(model, parts)
+        });
+        Ok(StepReport {
+            losses,
+            updated: true,
+        })
+    }
+}
+
+/// Group g's dropout stream: group 0 keeps the step's seed; the others a fixed mix of
+/// it with g, so the masks depend on the grouping only.
+fn group_dropout_seed(seed: u64, g: usize) -> u64 {
+    seed ^ (g as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15)
+}
+
+/// The forward pass and the loss of `samples` through `model`: each image's loss values,
+/// and the sum of the losses that have a gradient (None when none has).
+#[allow(clippy::type_complexity)]
+fn forward_loss<B: AutodiffBackend<InnerBackend: Pl2MapBackend> + Pl2MapBackend>(
+    model: &Pl2Map<B>,
+    samples: &[Sample],
+    loss: &LossConfig,
+    progress: f64,
+    dropout_seed: u64,
+) -> Result<(Vec<LossValues>, Option<Tensor<B, 1>>), ModelError> {
+    let device = model
+        .devices()
+        .into_iter()
+        .next()
+        .ok_or_else(|| ModelError::InvalidConfig("network has no parameters".into()))?;
+    let mut inputs = Vec::with_capacity(samples.len());
+    let mut targets = Vec::with_capacity(samples.len());
+    for sample in samples {
+        let t = sample.to_tensors::<B>(&model.config, &device)?;
+        inputs.push(t.input);
+        targets.push(t.targets);
+    }
+    let mut dropout = Dropout::seeded(model.config.dropout, dropout_seed);
+    let predictions = model.forward_batch(inputs, &mut dropout);
+    let mut total = None;
+    let mut values = Vec::with_capacity(samples.len());
+    for (prediction, targets) in predictions.iter().zip(&targets) {
+        let terms = compute_loss(prediction, targets, loss, progress);
+        values.push(terms.values());
+        if terms.has_gradient {
+            total = Some(match total {
+                None => terms.total,
+                Some(t) => t + terms.total,
+            });
+        }
+    }
+    Ok((values, total))
 }
 
 #[cfg(test)]
@@ -355,6 +485,69 @@ mod tests {
         let mut s =
             TrainState::<AD>::init(&cfg, LossConfig::indoor(), 9, &Default::default()).unwrap();
         assert!(s.step_batch(&[], &options(0, 0.9)).is_err());
+    }
+
+    /// Two gradient groups give the stacked step's weights up to rounding, and the same
+    /// weights however many threads run them (or none: one after another).
+    #[test]
+    fn gradient_groups_sum_to_the_batch_gradient_for_any_thread_count() {
+        // No dropout: the groups draw their own masks (the stacked step one stream).
+        let cfg = ModelConfig {
+            descriptor_dim: 64,
+            head_hidden: vec![256, 256],
+            dropout: 0.0,
+            ..tiny_config()
+        };
+        let mut batch: Vec<Sample> = (0..5)
+            .map(|i| tiny_sample(&cfg, 40 + 8 * (i % 2), 6))
+            .collect();
+        for (i, s) in batch.iter_mut().enumerate() {
+            for l in &mut s.point_labels {
+                l[0] += i as f32 * 0.3;
+            }
+        }
+        let probe = tiny_sample(&cfg, 16, 4);
+        let run = |groups: usize, threads: Option<usize>| {
+            let mut s =
+                TrainState::<AD>::init(&cfg, LossConfig::indoor(), 4, &Default::default()).unwrap();
+            s.set_batch_groups(groups, threads).unwrap();
+            let mut losses = Vec::new();
+            for i in 0..3 {
+                let r = s.step_batch(&batch, &options(i, 0.9)).unwrap();
+                assert!(r.updated);
+                losses.push(r.losses.total);
+            }
+            let p = s
+                .inference_model()
+                .predict(&probe.point_descriptors, &probe.line_descriptors)
+                .unwrap();
+            (losses, p)
+        };
+        let (stacked_losses, stacked) = run(1, Some(2));
+        let (losses, grouped) = run(2, Some(2));
+        for (a, b) in losses.iter().zip(&stacked_losses) {
+            assert!((a - b).abs() < 1e-4 * b.abs().max(1.0), "{a} vs {b}");
+        }
+        let flat = |p: &crate::HostPrediction| -> Vec<f32> {
+            p.points
+                .iter()
+                .flat_map(|x| [x.xyz[0], x.xyz[1], x.xyz[2], x.reliability])
+                .collect()
+        };
+        crate::testutil::assert_close(&flat(&grouped), &flat(&stacked), 1e-4);
+        assert_ne!(
+            grouped, stacked,
+            "two groups round differently from one pass"
+        );
+        for threads in [Some(1), Some(3), None] {
+            assert_eq!(run(2, threads).1, grouped, "threads {threads:?}");
+        }
+        // More groups than images: one image each.
+        let mut s =
+            TrainState::<AD>::init(&cfg, LossConfig::indoor(), 4, &Default::default()).unwrap();
+        s.set_batch_groups(8, Some(2)).unwrap();
+        assert!(s.step_batch(&batch, &options(0, 0.9)).unwrap().updated);
+        assert!(s.set_batch_groups(0, None).is_err());
     }
 
     /// The point input scale multiplies the point descriptors only: the network on

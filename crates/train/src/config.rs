@@ -51,6 +51,17 @@ pub struct TrainConfig {
     /// costs far less than 8 steps of 1.
     #[arg(long, default_value_t = TrainConfig::default().batch_frames)]
     pub batch_frames: usize,
+    /// Gradient groups per step: the step's images split into this many groups whose
+    /// forward and backward passes run side by side on the CPU's cores (one after
+    /// another on a GPU), their gradients summed (model's `groups.rs`). 1: one stacked
+    /// pass. On 2 cores two groups make the main job's step about a third faster: its
+    /// products are too small for two threads to share one. Part of the result, not a
+    /// speed setting: a group sums its own rows, so the grouping changes the rounding
+    /// (never the thread count).
+    // Written only when not 1: records of runs made before it existed hold.
+    #[serde(skip_serializing_if = "is_one")]
+    #[arg(long, default_value_t = TrainConfig::default().batch_groups)]
+    pub batch_groups: usize,
     #[arg(long, default_value_t = TrainConfig::default().learning_rate)]
     /// Adam's learning rate at the start.
     pub learning_rate: f64,
@@ -112,6 +123,10 @@ fn is_zero(v: &usize) -> bool {
     *v == 0
 }
 
+fn is_one(v: &usize) -> bool {
+    *v == 1
+}
+
 impl std::fmt::Display for LrSchedule {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.write_str(match self {
@@ -141,6 +156,7 @@ impl Default for TrainConfig {
             query_max_keypoints: 2048,
             iterations: 10_000,
             batch_frames: 1,
+            batch_groups: 1,
             learning_rate: 3e-4,
             lr_schedule: LrSchedule::Steps,
             lr_halvings: 7,
@@ -201,6 +217,12 @@ impl TrainConfig {
         }
         if self.batch_frames == 0 {
             return bad("batch_frames must be at least 1".into());
+        }
+        if self.batch_groups == 0 || self.batch_groups > self.batch_frames {
+            return bad(format!(
+                "batch_groups must be between 1 and batch_frames ({}), got {}",
+                self.batch_frames, self.batch_groups
+            ));
         }
         if !(self.learning_rate.is_finite() && self.learning_rate > 0.0) {
             return bad(format!(
@@ -350,6 +372,35 @@ mod tests {
         let parsed: TrainConfig = toml::from_str("lr_schedule = \"cosine\"").unwrap();
         assert_eq!(parsed.lr_schedule, LrSchedule::Cosine);
         assert!(toml::from_str::<TrainConfig>("lr_schedule = \"linear\"").is_err());
+    }
+
+    /// One group (the default) is not written, so the records of runs made before the
+    /// key existed still match; more groups than images is refused.
+    #[test]
+    fn batch_groups_default_to_one_and_are_written_only_when_not() {
+        let text = TrainConfig::default().to_toml();
+        assert!(!text.contains("batch_groups"), "{text}");
+        let c: TrainConfig = toml::from_str("batch_frames = 16\nbatch_groups = 2").unwrap();
+        assert_eq!(c.batch_groups, 2);
+        c.validate().unwrap();
+        assert!(c.to_toml().contains("batch_groups = 2"));
+        assert_eq!(
+            c.for_record().batch_groups,
+            2,
+            "the grouping is part of the result"
+        );
+        for (frames, groups) in [(2, 3), (4, 0)] {
+            let bad = TrainConfig {
+                batch_frames: frames,
+                batch_groups: groups,
+                ..Default::default()
+            };
+            let e = bad.validate().unwrap_err().to_string();
+            assert!(
+                e.contains("batch_groups") && e.contains(&groups.to_string()),
+                "{e}"
+            );
+        }
     }
 
     #[test]

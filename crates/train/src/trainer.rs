@@ -205,6 +205,10 @@ pub fn train_on<B: AutodiffBackend<InnerBackend: Pl2MapBackend> + Pl2MapBackend>
     config.front_end = front_end.config().clone();
     write_atomic(&out.join(CONFIG_FILE), config.to_toml().as_bytes())?;
     let mut state = state;
+    // Gradient groups run side by side on the CPU's threads; on a GPU one thread queues
+    // them one after another (the same weights either way).
+    let group_threads = config.device.is_cpu().then(rayon::current_num_threads);
+    state.set_batch_groups(config.batch_groups, group_threads)?;
 
     let stream_cfg = StreamConfig {
         shuffle_buffer: config.shuffle_buffer,
@@ -271,6 +275,8 @@ pub fn train_on<B: AutodiffBackend<InnerBackend: Pl2MapBackend> + Pl2MapBackend>
     // on Intel cores once the optimiser's moments underflow.
     let pool = model::denormals::flushing_pool()
         .map_err(|e| TrainError::Config(format!("starting the training threads: {e}")))?;
+    // Steps reuse freed buffers instead of mapping fresh pages for each (alloc.rs).
+    crate::alloc::keep_freed_memory();
     for i in start..config.iterations {
         if options.stop_after.is_some_and(|s| i >= s) {
             killed = true;
@@ -431,6 +437,16 @@ mod tests {
     #[test]
     fn resumed_batched_run_matches_an_uninterrupted_one() {
         resume_matches(3);
+    }
+
+    /// And in two gradient groups (side by side on the training threads): the resumed
+    /// run's groups make the same weights as the uninterrupted run's.
+    #[test]
+    fn resumed_run_in_gradient_groups_matches_an_uninterrupted_one() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut cfg = tiny_config();
+        cfg.batch_groups = 2;
+        resume_matches_with(dir.path(), 3, cfg);
     }
 
     fn resume_matches(batch_frames: usize) {
