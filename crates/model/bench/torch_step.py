@@ -175,6 +175,9 @@ def main():
     ap.add_argument("--progress", type=float, default=0.9)
     ap.add_argument("--seed", type=int, default=7)
     ap.add_argument("--token0-only", action="store_true")
+    # cpu, or cuda for the GPU side by side with `step_bench --backend cuda` (times then
+    # wait for the GPU to finish the step).
+    ap.add_argument("--device", default="cpu")
     a = ap.parse_args()
 
     torch.set_num_threads(a.threads)
@@ -183,7 +186,8 @@ def main():
     peak_ok = reset_peak()
 
     d, n, m = a.dim, a.points, a.lines
-    model = PL2Map(d, a.token0_only)
+    dev = torch.device(a.device)
+    model = PL2Map(d, a.token0_only).to(dev)
     params = sum(p.numel() for p in model.parameters())
     opt = torch.optim.Adam(model.parameters(), lr=1e-4, eps=1e-8)
     model.train()
@@ -204,6 +208,8 @@ def main():
     nrm = torch.stack([dvec[:, 1], -dvec[:, 0]], 1) / dvec.norm(dim=1, keepdim=True)
     eq = torch.cat([nrm, -(nrm * seg[:, :2]).sum(1, keepdim=True)], 1)
     data = (kp, seg, plab, pval, llab, lval, eq, torch.eye(3), torch.zeros(3), f, c)
+    data = tuple(x.to(dev) for x in data)
+    points, lines = points.to(dev), lines.to(dev)
     tau = math.sqrt(1 - a.progress ** 2) * 50.0 + 1.0
 
     times, cpu = [], []
@@ -215,6 +221,8 @@ def main():
         loss = loss_fn(pp, lp, data, tau)
         loss.backward()
         opt.step()
+        if dev.type == "cuda":
+            torch.cuda.synchronize()
         elapsed = time.perf_counter() - start
         cpu_used = time.process_time() - cpu_start
         if not math.isfinite(loss.item()):

@@ -25,6 +25,8 @@ mod attention_kernel;
 pub mod backend;
 pub mod bench;
 pub mod config;
+#[cfg(feature = "cuda")]
+mod cuda_check;
 pub mod denormals;
 pub mod device;
 pub mod dropout;
