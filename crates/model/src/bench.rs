@@ -369,6 +369,8 @@ fn run_burn<
     cfg: &StepBenchConfig,
     dim: usize,
 ) -> Result<StepBenchRow, ModelError> {
+    // The trainer's allocator settings (alloc.rs), so the step is measured as it trains.
+    crate::alloc::keep_freed_memory();
     let model_config = ModelConfig::new(dim);
     let sample = synthetic_sample(&model_config, cfg.keypoints, cfg.lines, cfg.seed);
     let rss_before = status_kib("VmRSS:");

@@ -20,6 +20,7 @@
 //! The crate re-exports `burn` so that dependants use exactly the pinned version.
 
 pub mod adam;
+pub mod alloc;
 pub mod attention;
 mod attention_kernel;
 pub mod backend;

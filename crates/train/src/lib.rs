@@ -10,7 +10,6 @@
 //!   exact `--resume`, `--init` warm starts, metrics CSV, progress bar, loss plot.
 //! - [`predict`]: [`Predictor`], the front-end + network on one query image.
 
-mod alloc;
 pub mod augment;
 pub mod checkpoint;
 pub mod config;

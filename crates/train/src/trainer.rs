@@ -275,8 +275,8 @@ pub fn train_on<B: AutodiffBackend<InnerBackend: Pl2MapBackend> + Pl2MapBackend>
     // on Intel cores once the optimiser's moments underflow.
     let pool = model::denormals::flushing_pool()
         .map_err(|e| TrainError::Config(format!("starting the training threads: {e}")))?;
-    // Steps reuse freed buffers instead of mapping fresh pages for each (alloc.rs).
-    crate::alloc::keep_freed_memory();
+    // Steps reuse freed buffers instead of mapping fresh pages for each (model's alloc.rs).
+    model::alloc::keep_freed_memory();
     for i in start..config.iterations {
         if options.stop_after.is_some_and(|s| i >= s) {
             killed = true;

@@ -1,9 +1,9 @@
-//! The allocator settings of a training run (glibc).
+//! The allocator settings of training steps (glibc): the trainer's and `step_bench`'s.
 //!
 //! Why: a step allocates and frees the same few hundred buffers every time (activations,
 //! gradients, Adam's outputs), most of them 0.1-16 MiB. glibc serves such sizes with
 //! fresh `mmap`s and returns them with `munmap`, so every step page-faults its buffers in
-//! again; with gradient groups (model's `groups.rs`) the groups' threads also contend
+//! again; with gradient groups (`groups.rs`) the groups' threads also contend
 //! for the process's memory map while doing so. Keeping freed memory in the heap for
 //! reuse made the main job's step (`pipeline/synthetic.toml`, two groups) 6-11 % faster
 //! on a 2-core Intel Xeon VM (docs/performance.md, "Gradient groups"). Values are not
