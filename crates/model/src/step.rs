@@ -284,16 +284,18 @@ fn group_dropout_seed(seed: u64, g: usize) -> u64 {
     seed ^ (g as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15)
 }
 
-/// The forward pass and the loss of `samples` through `model`: each image's loss values,
-/// and the sum of the losses that have a gradient (None when none has).
-#[allow(clippy::type_complexity)]
+/// Each image's loss values, and the sum of the losses that have a gradient (None when
+/// none has).
+type ImageLosses<B> = (Vec<LossValues>, Option<Tensor<B, 1>>);
+
+/// The forward pass and the loss of `samples` through `model`.
 fn forward_loss<B: AutodiffBackend<InnerBackend: Pl2MapBackend> + Pl2MapBackend>(
     model: &Pl2Map<B>,
     samples: &[Sample],
     loss: &LossConfig,
     progress: f64,
     dropout_seed: u64,
-) -> Result<(Vec<LossValues>, Option<Tensor<B, 1>>), ModelError> {
+) -> Result<ImageLosses<B>, ModelError> {
     let device = model
         .devices()
         .into_iter()
