@@ -9,10 +9,10 @@
 #[cfg(test)]
 mod tests {
     use crate::config::LayerKind;
-    use crate::testutil::tiny_sample;
+    use crate::testutil::{flat, tiny_sample};
     use crate::{
-        CpuAutodiffBackend, CudaAutodiffBackend, HostPrediction, LossConfig, ModelConfig,
-        Pl2MapBackend, Sample, StepOptions, TrainState,
+        CpuAutodiffBackend, CudaAutodiffBackend, LossConfig, ModelConfig, Pl2MapBackend, Sample,
+        StepOptions, TrainState,
     };
     use burn::tensor::backend::AutodiffBackend;
 
@@ -35,18 +35,6 @@ mod tests {
             point_input_scale: 1.0,
             head_init: crate::HeadInit::He,
         }
-    }
-
-    fn flat(p: &HostPrediction) -> Vec<f32> {
-        p.points
-            .iter()
-            .flat_map(|x| [x.xyz[0], x.xyz[1], x.xyz[2], x.reliability])
-            .chain(p.lines.iter().flat_map(|x| {
-                [
-                    x.start[0], x.start[1], x.start[2], x.end[0], x.end[1], x.end[2],
-                ]
-            }))
-            .collect()
     }
 
     /// Predictions of the fresh network, and after `steps` Adam steps on `batch` in

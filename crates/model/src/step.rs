@@ -328,7 +328,7 @@ fn forward_loss<B: AutodiffBackend<InnerBackend: Pl2MapBackend> + Pl2MapBackend>
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::testutil::{AD, tiny_config, tiny_sample};
+    use crate::testutil::{AD, flat, tiny_config, tiny_sample};
 
     fn options(i: usize, progress: f64) -> StepOptions {
         StepOptions {
@@ -453,17 +453,6 @@ mod tests {
                 .unwrap();
             (r.losses, p)
         };
-        let flat = |p: &crate::HostPrediction| -> Vec<f32> {
-            p.points
-                .iter()
-                .flat_map(|x| [x.xyz[0], x.xyz[1], x.xyz[2], x.reliability])
-                .chain(p.lines.iter().flat_map(|x| {
-                    [
-                        x.start[0], x.start[1], x.start[2], x.end[0], x.end[1], x.end[2],
-                    ]
-                }))
-                .collect()
-        };
         let (la, pa) = after(std::slice::from_ref(&a));
         let (laa, paa) = after(&[a.clone(), a.clone()]);
         crate::testutil::assert_close(&flat(&paa), &flat(&pa), 1e-5);
@@ -530,13 +519,9 @@ mod tests {
         for (a, b) in losses.iter().zip(&stacked_losses) {
             assert!((a - b).abs() < 1e-4 * b.abs().max(1.0), "{a} vs {b}");
         }
-        let flat = |p: &crate::HostPrediction| -> Vec<f32> {
-            p.points
-                .iter()
-                .flat_map(|x| [x.xyz[0], x.xyz[1], x.xyz[2], x.reliability])
-                .collect()
-        };
-        crate::testutil::assert_close(&flat(&grouped), &flat(&stacked), 1e-4);
+        // The points (the lines' endpoints drift further apart within three steps).
+        let points = |p: &crate::HostPrediction| flat(p)[..4 * p.points.len()].to_vec();
+        crate::testutil::assert_close(&points(&grouped), &points(&stacked), 1e-4);
         assert_ne!(
             grouped, stacked,
             "two groups round differently from one pass"

@@ -23,6 +23,20 @@ pub fn tiny_config() -> ModelConfig {
     }
 }
 
+/// A prediction's numbers in one vector (points: xyz and reliability; lines: both
+/// endpoints), for comparisons within a tolerance.
+pub fn flat(p: &crate::HostPrediction) -> Vec<f32> {
+    p.points
+        .iter()
+        .flat_map(|x| [x.xyz[0], x.xyz[1], x.xyz[2], x.reliability])
+        .chain(p.lines.iter().flat_map(|x| {
+            [
+                x.start[0], x.start[1], x.start[2], x.end[0], x.end[1], x.end[2],
+            ]
+        }))
+        .collect()
+}
+
 pub fn values<Bk: Backend, const K: usize>(t: &Tensor<Bk, K>) -> Vec<f32> {
     t.to_data().convert::<f32>().to_vec::<f32>().unwrap()
 }
