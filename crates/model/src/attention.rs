@@ -188,6 +188,8 @@ mod tests {
     /// the same operations on the same values, so the results are equal bit for bit.
     #[test]
     fn the_kernel_matches_the_composed_path() {
+        // Differentiates: not beside another thread's graphs (autodiff_lock.rs).
+        let _autodiff = crate::autodiff_lock::exclusive();
         use crate::testutil::AD;
         let (g, nq, nk, d, heads) = (2, 37, 70, 16, 4);
         let rows = g * (nq + nk);

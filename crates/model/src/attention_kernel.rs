@@ -16,90 +16,18 @@
 //! Every task is a fixed block (one image and head), so results never depend on the
 //! number of threads.
 
+use crate::flex_matrix::{Operand, View, row_major, tensor, transposed};
 use burn::backend::Flex;
+use burn::tensor::Scalar;
 use burn::tensor::ops::FloatTensorOps;
-use burn::tensor::{Bytes, DType, Scalar, Shape};
-use burn_flex::{FlexTensor, Layout};
+use burn_flex::FlexTensor;
 use rayon::prelude::*;
 
-/// A 2-D f32 operand read in place: storage, first element, (row, column) strides.
-#[derive(Clone, Copy)]
-struct View<'a> {
-    data: &'a [f32],
-    offset: usize,
-    rows: usize,
-    cols: usize,
-    row_stride: usize,
-    col_stride: usize,
-}
-
-impl<'a> View<'a> {
-    /// None unless `t` is a 2-D f32 tensor with non-negative strides inside its storage.
-    fn of(t: &'a FlexTensor) -> Option<Self> {
-        let layout = t.layout();
-        let shape = layout.shape();
-        if t.dtype() != DType::F32 || shape.num_dims() != 2 {
-            return None;
-        }
-        let strides = layout.strides();
-        let (row_stride, col_stride) = (
-            usize::try_from(strides[0]).ok()?,
-            usize::try_from(strides[1]).ok()?,
-        );
-        let view = View {
-            data: t.storage::<f32>(),
-            offset: layout.start_offset(),
-            rows: shape[0],
-            cols: shape[1],
-            row_stride,
-            col_stride,
-        };
-        let fits = view.rows == 0
-            || view.cols == 0
-            || view.offset + (view.rows - 1) * row_stride + (view.cols - 1) * col_stride
-                < view.data.len();
-        fits.then_some(view)
-    }
-}
-
-/// A strided matrix operand of one product: first element and (row, column) strides.
-#[derive(Clone, Copy)]
-struct Operand {
-    ptr: *const f32,
-    row_stride: usize,
-    col_stride: usize,
-}
-
-/// dst [m, n] (row-major) = lhs [m, k] x rhs [k, n], computed by the calling thread as
-/// burn-flex's `matmul` computes it (alpha 0, beta 1: every element of dst is written,
-/// none is read, for k > 0).
+/// One block's product on the calling thread (each block is its own rayon task).
 ///
-/// SAFETY: dst points to m x n writable elements; lhs reaches m x k and rhs k x n valid
-/// elements through their strides; m, n, k > 0.
+/// SAFETY: as `flex_matrix::product`.
 unsafe fn product(dst: *mut f32, m: usize, n: usize, k: usize, lhs: Operand, rhs: Operand) {
-    unsafe {
-        gemm::gemm(
-            m,
-            n,
-            k,
-            dst,
-            1,
-            n as isize,
-            false,
-            lhs.ptr,
-            lhs.col_stride as isize,
-            lhs.row_stride as isize,
-            rhs.ptr,
-            rhs.col_stride as isize,
-            rhs.row_stride as isize,
-            0.0,
-            1.0,
-            false,
-            false,
-            false,
-            gemm::Parallelism::None,
-        );
-    }
+    unsafe { crate::flex_matrix::product(dst, (m, n, k), lhs, rhs, gemm::Parallelism::None) }
 }
 
 /// Raw operand pointers may cross to the rayon tasks: every task only reads them.
@@ -137,14 +65,6 @@ unsafe fn block_products(
 struct SendPtr(*mut f32);
 unsafe impl Send for SendPtr {}
 unsafe impl Sync for SendPtr {}
-
-fn tensor(values: Vec<f32>, shape: Vec<usize>) -> FlexTensor {
-    FlexTensor::new(
-        Bytes::from_elems(values),
-        Layout::contiguous(Shape::from(shape)),
-        DType::F32,
-    )
-}
 
 /// The sizes of one call: `groups` images of nq queries and nk keys, `heads` heads of dk.
 #[derive(Clone, Copy, Debug)]
@@ -220,22 +140,6 @@ impl Dims {
     }
 }
 
-fn transposed(o: Operand) -> Operand {
-    Operand {
-        row_stride: o.col_stride,
-        col_stride: o.row_stride,
-        ..o
-    }
-}
-
-fn dense(data: &[f32], cols: usize) -> Operand {
-    Operand {
-        ptr: data.as_ptr(),
-        row_stride: cols,
-        col_stride: 1,
-    }
-}
-
 /// Attention of `q` ([groups * nq, d]) over `k`, `v` ([groups * nk, d]) with `heads`
 /// heads, image g's queries attending to image g's keys only: the output
 /// [groups * nq, d] and what the backward pass needs: `[q / sqrt(dk) (contiguous), k, v,
@@ -273,7 +177,14 @@ pub(crate) fn forward(
     let v_ops = dims.heads_of(&vv, nk);
     let per_head = unsafe {
         block_products(dims.blocks(), nq, dk, |b, dst| {
-            product(dst, nq, dk, nk, dense(&p[b * nq * nk..], nk), v_ops[b].0)
+            product(
+                dst,
+                nq,
+                dk,
+                nk,
+                row_major(&p[b * nq * nk..], nk),
+                v_ops[b].0,
+            )
         })
     };
     let output = tensor(
@@ -344,7 +255,14 @@ pub(crate) fn backward(
     // Through the first product (Q' K^T): dQ' = dS K, d(K^T) = Q'^T dS.
     let dq_heads = unsafe {
         block_products(dims.blocks(), nq, dk, |b, dst| {
-            product(dst, nq, dk, nk, dense(&ds[b * nq * nk..], nk), k_ops[b].0)
+            product(
+                dst,
+                nq,
+                dk,
+                nk,
+                row_major(&ds[b * nq * nk..], nk),
+                k_ops[b].0,
+            )
         })
     };
     let dkt = unsafe {
@@ -355,7 +273,7 @@ pub(crate) fn backward(
                 nk,
                 nq,
                 transposed(q_ops[b].0),
-                dense(&ds[b * nq * nk..], nk),
+                row_major(&ds[b * nq * nk..], nk),
             )
         })
     };
@@ -367,7 +285,7 @@ pub(crate) fn backward(
                 nk,
                 dk,
                 nq,
-                transposed(dense(&probs[b * nq * nk..], nk)),
+                transposed(row_major(&probs[b * nq * nk..], nk)),
                 g_ops[b].0,
             )
         })

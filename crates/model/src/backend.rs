@@ -12,7 +12,7 @@
 //! composed operations compute with fewer buffers (docs/performance.md, "Attention as one
 //! operation"); the others return None and `attention.rs` composes burn's operations.
 
-use crate::attention_kernel;
+use crate::{attention_kernel, dense_kernel};
 use burn::backend::Autodiff;
 use burn::backend::autodiff::checkpoint::base::Checkpointer;
 use burn::backend::autodiff::checkpoint::strategy::CheckpointStrategy;
@@ -68,7 +68,45 @@ pub trait Pl2MapBackend: Backend {
     ) -> Option<[FloatTensor<Self>; 3]> {
         None
     }
+
+    /// A dense layer `x W + b` (x [m, k], W [k, n], b [n]), with a ReLU after it when
+    /// `relu`, as one operation where the backend has a kernel for it (`dense.rs`);
+    /// None means "compose burn's operations".
+    fn dense(
+        x: FloatTensor<Self>,
+        w: FloatTensor<Self>,
+        b: FloatTensor<Self>,
+        relu: bool,
+    ) -> Option<FloatTensor<Self>> {
+        Self::dense_forward(&x, &w, &b, relu)
+    }
+
+    /// The kernel's forward pass. None: no kernel, or operands it does not take.
+    fn dense_forward(
+        _x: &FloatTensor<Self>,
+        _w: &FloatTensor<Self>,
+        _b: &FloatTensor<Self>,
+        _relu: bool,
+    ) -> Option<FloatTensor<Self>> {
+        None
+    }
+
+    /// The kernel's backward pass: (dx when `want_x`, dW, db) from the output's gradient,
+    /// the layer's input and weight and, for a ReLU layer, its output. Only called for
+    /// layers this backend's `dense_forward` computed.
+    fn dense_backward(
+        _x: &FloatTensor<Self>,
+        _w: &FloatTensor<Self>,
+        _y: Option<&FloatTensor<Self>>,
+        _grad: FloatTensor<Self>,
+        _want_x: bool,
+    ) -> Option<DenseGradients<Self>> {
+        None
+    }
 }
+
+/// A dense layer's gradients: of its input (when asked for), weight and bias.
+pub type DenseGradients<B> = (Option<FloatTensor<B>>, FloatTensor<B>, FloatTensor<B>);
 
 impl Pl2MapBackend for burn::backend::Flex {
     const HOST_MEMORY: bool = true;
@@ -90,6 +128,25 @@ impl Pl2MapBackend for burn::backend::Flex {
         groups: usize,
     ) -> Option<[FloatTensor<Self>; 3]> {
         attention_kernel::backward(saved, &grad, heads, groups)
+    }
+
+    fn dense_forward(
+        x: &FloatTensor<Self>,
+        w: &FloatTensor<Self>,
+        b: &FloatTensor<Self>,
+        relu: bool,
+    ) -> Option<FloatTensor<Self>> {
+        dense_kernel::forward(x, w, b, relu)
+    }
+
+    fn dense_backward(
+        x: &FloatTensor<Self>,
+        w: &FloatTensor<Self>,
+        y: Option<&FloatTensor<Self>>,
+        grad: FloatTensor<Self>,
+        want_x: bool,
+    ) -> Option<DenseGradients<Self>> {
+        dense_kernel::backward(x, w, y, &grad, want_x)
     }
 }
 
@@ -143,7 +200,64 @@ impl<B: Pl2MapBackend> Backward<B, 3> for Attention {
     }
 }
 
+/// The dense-layer kernel's recorded operation (parents x, W, b).
+#[derive(Debug)]
+struct Dense;
+
+impl<B: Pl2MapBackend> Backward<B, 3> for Dense {
+    /// The layer's input and weight, and its output when it ends in a ReLU.
+    type State = (
+        B::FloatTensorPrimitive,
+        B::FloatTensorPrimitive,
+        Option<B::FloatTensorPrimitive>,
+    );
+
+    fn backward(self, ops: Ops<Self::State, 3>, grads: &mut Gradients, _: &mut Checkpointer) {
+        let [node_x, node_w, node_b] = ops.parents;
+        let grad = grads.consume::<B>(&ops.node);
+        let (x, w, y) = ops.state;
+        // `dense_forward` of the same backend accepted these operands, so the backward
+        // accepts them too; if it ever did not, the parents get no gradient from here
+        // rather than a wrong one.
+        let Some((dx, dw, db)) = B::dense_backward(&x, &w, y.as_ref(), grad, node_x.is_some())
+        else {
+            return;
+        };
+        if let (Some(node), Some(dx)) = (node_x, dx) {
+            grads.register::<B>(node.id, dx);
+        }
+        if let Some(node) = node_w {
+            grads.register::<B>(node.id, dw);
+        }
+        if let Some(node) = node_b {
+            grads.register::<B>(node.id, db);
+        }
+    }
+}
+
 impl<B: Pl2MapBackend, C: CheckpointStrategy> Pl2MapBackend for Autodiff<B, C> {
+    fn dense(
+        x: FloatTensor<Self>,
+        w: FloatTensor<Self>,
+        b: FloatTensor<Self>,
+        relu: bool,
+    ) -> Option<FloatTensor<Self>> {
+        let out = B::dense_forward(&x.primitive, &w.primitive, &b.primitive, relu)?;
+        Some(
+            match Dense
+                .prepare::<C>([x.node.clone(), w.node.clone(), b.node.clone()])
+                .compute_bound()
+                .stateful()
+            {
+                OpsKind::Tracked(prep) => {
+                    let y = relu.then(|| out.clone());
+                    prep.finish((x.primitive, w.primitive, y), out)
+                }
+                OpsKind::UnTracked(prep) => prep.finish(out),
+            },
+        )
+    }
+
     fn multi_head_attention(
         q: FloatTensor<Self>,
         k: FloatTensor<Self>,
@@ -200,6 +314,8 @@ mod tests {
 
     #[test]
     fn matches_burns_softmax_and_its_gradient() {
+        // Differentiates: not beside another thread's graphs (autodiff_lock.rs).
+        let _autodiff = crate::autodiff_lock::exclusive();
         let x = pseudo(2 * 3 * 5, 4)
             .iter()
             .map(|v| 4.0 * v)

@@ -248,6 +248,8 @@ pub fn cpu_gradients(
     net: &crate::Pl2Map<crate::CpuAutodiffBackend>,
     sample: &Sample,
 ) -> Result<burn::optim::GradientsParams, ModelError> {
+    // Not beside another thread's graphs (autodiff_lock.rs).
+    let _autodiff = crate::autodiff_lock::exclusive();
     let t = sample.to_tensors::<crate::CpuAutodiffBackend>(&net.config, &Default::default())?;
     let p = net.forward_batch(vec![t.input], &mut crate::Dropout::seeded(0.0, 0));
     let terms = crate::compute_loss(&p[0], &t.targets, &LossConfig::indoor(), 0.9);

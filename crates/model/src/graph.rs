@@ -7,10 +7,11 @@
 use crate::attention::{Projections, attend_grouped};
 use crate::backend::Pl2MapBackend;
 use crate::config::LayerKind;
+use crate::dense::dense;
 use crate::init::Initializer;
 use burn::module::Module;
 use burn::nn::Linear;
-use burn::tensor::{Tensor, activation, backend::Backend};
+use burn::tensor::{Tensor, backend::Backend};
 
 /// One attentional propagation layer: d <- d + MLP([d || merge(attention(d, edges))]),
 /// MLP 2D -> 2D -> D with ReLU, last bias initialised to zero.
@@ -46,9 +47,9 @@ impl<B: Pl2MapBackend> PropagationLayer<B> {
         };
         let [rows, d] = x.dims();
         let context = if n > 0 && m > 0 {
-            let q = self.attention.query.forward(x.clone());
-            let k = self.attention.key.forward(x.clone());
-            let v = self.attention.value.forward(x.clone());
+            let q = dense(&self.attention.query, x.clone(), false);
+            let k = dense(&self.attention.key, x.clone(), false);
+            let v = dense(&self.attention.value, x.clone(), false);
             let split = |t: Tensor<B, 2>| (t.clone().narrow(0, 0, n), t.narrow(0, n, m));
             let (qp, ql) = split(q);
             let (kp, kl) = split(k);
@@ -61,9 +62,9 @@ impl<B: Pl2MapBackend> PropagationLayer<B> {
         } else {
             match kind {
                 LayerKind::SelfAttention => {
-                    let q = self.attention.query.forward(x.clone());
-                    let k = self.attention.key.forward(x.clone());
-                    let v = self.attention.value.forward(x.clone());
+                    let q = dense(&self.attention.query, x.clone(), false);
+                    let k = dense(&self.attention.key, x.clone(), false);
+                    let v = dense(&self.attention.value, x.clone(), false);
                     attend(q, k, v)
                 }
                 // The other stream is empty: attention over an empty edge set is an empty
@@ -71,12 +72,13 @@ impl<B: Pl2MapBackend> PropagationLayer<B> {
                 LayerKind::Cross => Tensor::zeros([rows, d], &x.device()),
             }
         };
-        let message = self.attention.merge.forward(context);
-        let hidden = activation::relu(
-            self.mlp_hidden
-                .forward(Tensor::cat(vec![x.clone(), message], 1)),
+        let message = dense(&self.attention.merge, context, false);
+        let hidden = dense(
+            &self.mlp_hidden,
+            Tensor::cat(vec![x.clone(), message], 1),
+            true,
         );
-        x + self.mlp_out.forward(hidden)
+        x + dense(&self.mlp_out, hidden, false)
     }
 }
 
@@ -131,6 +133,7 @@ impl<B: Pl2MapBackend> GraphNetwork<B> {
 mod tests {
     use super::*;
     use crate::attention::attend;
+    use burn::tensor::activation;
     use crate::testutil::{B, assert_close, pseudo, tensor, values};
 
     /// One layer applied to each stream on its own, from the previous values.

@@ -1,17 +1,19 @@
 //! Regression heads: an MLP with ReLU between layers and no normalisation.
 
+use crate::backend::Pl2MapBackend;
 use crate::config::HeadInit;
+use crate::dense::dense;
 use crate::init::Initializer;
 use burn::module::Module;
 use burn::nn::Linear;
-use burn::tensor::{Tensor, activation, backend::Backend};
+use burn::tensor::{Tensor, backend::Backend};
 
 #[derive(Module, Debug)]
 pub struct Mlp<B: Backend> {
     pub layers: Vec<Linear<B>>,
 }
 
-impl<B: Backend> Mlp<B> {
+impl<B: Pl2MapBackend> Mlp<B> {
     /// `widths`: input, hidden..., output.
     pub(crate) fn new(init: &mut Initializer<'_, B>, widths: &[usize], how: HeadInit) -> Self {
         let last = widths.len().saturating_sub(2);
@@ -30,10 +32,7 @@ impl<B: Backend> Mlp<B> {
     pub fn forward(&self, mut x: Tensor<B, 2>) -> Tensor<B, 2> {
         let last = self.layers.len().saturating_sub(1);
         for (i, layer) in self.layers.iter().enumerate() {
-            x = layer.forward(x);
-            if i < last {
-                x = activation::relu(x);
-            }
+            x = dense(layer, x, i < last);
         }
         x
     }

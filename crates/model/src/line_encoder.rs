@@ -9,6 +9,7 @@
 
 use crate::attention::Projections;
 use crate::backend::{Pl2MapBackend, softmax_last};
+use crate::dense::dense;
 use crate::dropout::Dropout;
 use crate::init::Initializer;
 use burn::module::Module;
@@ -51,33 +52,24 @@ impl<B: Pl2MapBackend> LineEncoder<B> {
         let token0 = lines.clone().narrow(1, 0, 1).reshape([m, d]);
         let flat = lines.reshape([m * t, d]);
         // [M, h, T, dk] and [M, h, dk, T]
-        let k = self
-            .attention
-            .key
-            .forward(flat.clone())
+        let k = dense(&self.attention.key, flat.clone(), false)
             .reshape([m, t, h, dk])
             .permute([0, 2, 3, 1]);
-        let v = self
-            .attention
-            .value
-            .forward(flat)
+        let v = dense(&self.attention.value, flat, false)
             .reshape([m, t, h, dk])
             .swap_dims(1, 2);
-        let q = self
-            .attention
-            .query
-            .forward(token0.clone())
+        let q = dense(&self.attention.query, token0.clone(), false)
             .mul_scalar(scale)
             .reshape([m, h, 1, dk]);
 
         let weights = softmax_last(q.matmul(k)); // [M, h, 1, T]
         let weights = dropout.apply(weights);
         let context = weights.matmul(v).reshape([m, d]);
-        let attended = dropout.apply(self.attention.merge.forward(context));
+        let attended = dropout.apply(dense(&self.attention.merge, context, false));
         let x = self.attention_norm.forward(attended + token0);
 
-        let hidden = activation::gelu(self.ffn_in.forward(x.clone()));
-        let out = dropout.apply(self.ffn_out.forward(hidden));
+        let hidden = activation::gelu(dense(&self.ffn_in, x.clone(), false));
+        let out = dropout.apply(dense(&self.ffn_out, hidden, false));
         self.ffn_norm.forward(out + x)
     }
 }

@@ -765,6 +765,8 @@ mod tests {
 
     #[test]
     fn reprojection_gradient_matches_finite_differences() {
+        // Differentiates: not beside another thread's graphs (autodiff_lock.rs).
+        let _autodiff = crate::autodiff_lock::exclusive();
         let (s, _) = case();
         let cfg = LossConfig::indoor();
         let points = vec![

@@ -15,6 +15,7 @@ use burn::optim::{AdamConfig, GradientsParams, Optimizer};
 use burn::tensor::Tensor;
 use burn::tensor::backend::AutodiffBackend;
 use std::ops::Range;
+use std::sync::Barrier;
 
 /// Adam as the reference runs it (PyTorch defaults: betas 0.9 / 0.999, eps 1e-8, no weight
 /// decay). Burn's own default epsilon is 1e-5.
@@ -151,6 +152,9 @@ impl<B: AutodiffBackend<InnerBackend: Pl2MapBackend> + Pl2MapBackend> TrainState
                 "a step needs at least one image".into(),
             ));
         }
+        // Building and differentiating this step's graphs must not overlap another
+        // thread's (autodiff_lock.rs).
+        let _autodiff = crate::autodiff_lock::exclusive();
         let ranges = groups::split(samples.len(), self.batch_groups);
         if ranges.len() > 1 {
             return self.step_grouped(samples, &ranges, options);
@@ -233,18 +237,27 @@ impl<B: AutodiffBackend<InnerBackend: Pl2MapBackend> + Pl2MapBackend> TrainState
             .collect();
         let n = samples.len() as f64;
         let loss = &self.loss;
+        // No group's backward pass may start while another group still builds its graph:
+        // each backward pass ends in burn's sweep over every graph of the process, which
+        // can free the steps of a graph under construction (autodiff_lock.rs). Groups run
+        // one after another (no pools) need no barrier.
+        let side_by_side = self.group_pools.is_some();
+        let built = Barrier::new(if side_by_side { ranges.len() } else { 1 });
         let work = |g: usize| -> Result<(Vec<LossValues>, Option<GradientsParams>), ModelError> {
             let copy = &copies[g];
-            let (values, total) = forward_loss(
+            // Each group's share of the batch mean, so that the sum is the mean's gradient.
+            let forward = forward_loss(
                 copy,
                 &samples[ranges[g].clone()],
                 loss,
                 options.progress,
                 group_dropout_seed(options.dropout_seed, g),
-            )?;
-            // Each group's share of the batch mean, so that the sum is the mean's gradient.
-            let grads =
-                total.map(|t| GradientsParams::from_grads(t.div_scalar(n).backward(), copy));
+            )
+            .map(|(values, total)| (values, total.map(|t| t.div_scalar(n))));
+            // Every group reaches the barrier, errors included, or the others would wait.
+            built.wait();
+            let (values, total) = forward?;
+            let grads = total.map(|t| GradientsParams::from_grads(t.backward(), copy));
             Ok((values, grads))
         };
         let results = match &self.group_pools {
@@ -535,6 +548,58 @@ mod tests {
         s.set_batch_groups(8, Some(2)).unwrap();
         assert!(s.step_batch(&batch, &options(0, 0.9)).unwrap().updated);
         assert!(s.set_batch_groups(0, None).is_err());
+    }
+
+    /// Two trainers in one process (the tests run side by side; a library user may run
+    /// two) leave each other's steps alone: a grouped run repeated beside another thread
+    /// that keeps stepping its own network gives the weights it gives alone. Without
+    /// the process's autodiff lock about a quarter of the runs differed
+    /// (autodiff_lock.rs).
+    #[test]
+    fn concurrent_trainers_do_not_change_each_others_steps() {
+        let cfg = ModelConfig {
+            descriptor_dim: 64,
+            head_hidden: vec![256, 256],
+            dropout: 0.0,
+            ..tiny_config()
+        };
+        let batch: Vec<Sample> = (0..5)
+            .map(|i| tiny_sample(&cfg, 40 + 8 * (i % 2), 6))
+            .collect();
+        let probe = tiny_sample(&cfg, 16, 4);
+        let run = || {
+            let mut s =
+                TrainState::<AD>::init(&cfg, LossConfig::indoor(), 4, &Default::default()).unwrap();
+            s.set_batch_groups(2, Some(2)).unwrap();
+            for i in 0..3 {
+                s.step_batch(&batch, &options(i, 0.9)).unwrap();
+            }
+            s.inference_model()
+                .predict(&probe.point_descriptors, &probe.line_descriptors)
+                .unwrap()
+        };
+        let alone = run();
+        let stop = std::sync::atomic::AtomicBool::new(false);
+        let other_steps = std::thread::scope(|scope| {
+            let other = scope.spawn(|| {
+                let sample = tiny_sample(&cfg, 6, 3);
+                let mut s =
+                    TrainState::<AD>::init(&cfg, LossConfig::indoor(), 9, &Default::default())
+                        .unwrap();
+                let mut steps = 0;
+                while !stop.load(std::sync::atomic::Ordering::Relaxed) {
+                    s.step(&sample, &options(steps, 0.5)).unwrap();
+                    steps += 1;
+                }
+                steps
+            });
+            for attempt in 0..12 {
+                assert_eq!(run(), alone, "run {attempt} beside another trainer");
+            }
+            stop.store(true, std::sync::atomic::Ordering::Relaxed);
+            other.join().unwrap()
+        });
+        assert!(other_steps > 0, "the other trainer stepped");
     }
 
     /// The point input scale multiplies the point descriptors only: the network on

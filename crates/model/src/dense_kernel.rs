@@ -1,0 +1,155 @@
+//! A dense layer, `relu(x W + b)` or `x W + b`, on burn's Flex CPU backend as one
+//! operation (forward and backward).
+//!
+//! Composed from burn's operations a layer is a product, a bias addition and a ReLU
+//! forward, and a ReLU mask, two products and a column sum backward: six buffers, each
+//! product's made zeroed and then copied once more (`flex_matrix.rs`). In the main job's
+//! six-layer heads those copies and passes were about a tenth of a training step
+//! (docs/performance.md, "Dense layers as one operation"). Here each direction makes one
+//! buffer per result and adds the bias and applies the ReLU in the same pass.
+//!
+//! The arithmetic is the composed path's: the same `gemm` calls on the same operands
+//! (burn's `linear` is `x.matmul(W)`, its backward `grad.matmul(W^T)` and
+//! `x^T.matmul(grad)`), the bias added to the finished product, burn-flex's ReLU
+//! (`max(z, 0)`, and backward the gradient where the output is positive, 0 elsewhere) and
+//! burn-flex's own first-dimension sum for the bias. The results equal the composed
+//! path's bit for bit (test `matches_the_composed_path`) and never depend on the number of
+//! threads (element-wise passes; gemm's sums do not depend on its threads).
+
+use crate::flex_matrix::{View, new_product, parallelism_of, tensor, transposed};
+use burn::backend::Flex;
+use burn::tensor::Shape;
+use burn::tensor::ops::FloatTensorOps;
+use burn_flex::FlexTensor;
+use rayon::prelude::*;
+
+/// Rows per task of the element-wise passes: a fixed split, whatever the threads.
+const ROWS_PER_TASK: usize = 64;
+
+/// The layer's operands, checked: x [m, k], W [k, n], b [n], all sizes positive.
+struct Shapes<'a> {
+    x: View<'a>,
+    w: View<'a>,
+    m: usize,
+    k: usize,
+    n: usize,
+}
+
+impl<'a> Shapes<'a> {
+    fn of(x: &'a FlexTensor, w: &'a FlexTensor) -> Option<Self> {
+        let (x, w) = (View::of(x)?, View::of(w)?);
+        let (m, k, n) = (x.rows, x.cols, w.cols);
+        (w.rows == k && m > 0 && k > 0 && n > 0).then_some(Shapes { x, w, m, k, n })
+    }
+}
+
+/// The bias as n contiguous values: None unless a 1-D f32 tensor of n elements.
+fn bias_values(b: &FlexTensor, n: usize) -> Option<Vec<f32>> {
+    let layout = b.layout();
+    if b.dtype() != burn::tensor::DType::F32 || layout.shape().num_dims() != 1 {
+        return None;
+    }
+    let (len, stride) = (layout.shape()[0], layout.strides()[0]);
+    let stride = usize::try_from(stride).ok()?;
+    let data = b.storage::<f32>();
+    let start = layout.start_offset();
+    if len != n || (n > 0 && start + (n - 1) * stride >= data.len()) {
+        return None;
+    }
+    Some((0..n).map(|j| data[start + j * stride]).collect())
+}
+
+/// `x W + b`, then ReLU when `relu`: [m, n]. None when the operands are not plain f32
+/// matrices of matching, positive sizes (the caller then composes burn's operations).
+pub(crate) fn forward(
+    x: &FlexTensor,
+    w: &FlexTensor,
+    b: &FlexTensor,
+    relu: bool,
+) -> Option<FlexTensor> {
+    let Shapes { x, w, m, k, n } = Shapes::of(x, w)?;
+    let bias = bias_values(b, n)?;
+    // SAFETY: both views were checked by View::of, their shapes fit and are positive.
+    let mut out =
+        unsafe { new_product((m, n, k), x.operand(), w.operand(), parallelism_of(m, n, k)) };
+    out.par_chunks_mut(ROWS_PER_TASK * n).for_each(|rows| {
+        for row in rows.chunks_exact_mut(n) {
+            for (v, b) in row.iter_mut().zip(&bias) {
+                let z = *v + b;
+                // burn-flex's ReLU: f32::max, which also takes NaN to 0.
+                *v = if relu { z.max(0.0) } else { z };
+            }
+        }
+    });
+    Some(tensor(out, vec![m, n]))
+}
+
+/// The gradients of x (when `want_x`), W and b from the output's gradient `grad`, given
+/// the layer's input `x`, weight `w` and, with `relu`, its output `y` (whose positive
+/// elements let the gradient through): (dx, dW, db). None when the tensors do not fit
+/// together.
+pub(crate) fn backward(
+    x: &FlexTensor,
+    w: &FlexTensor,
+    y: Option<&FlexTensor>,
+    grad: &FlexTensor,
+    want_x: bool,
+) -> Option<(Option<FlexTensor>, FlexTensor, FlexTensor)> {
+    let Shapes { x, w, m, k, n } = Shapes::of(x, w)?;
+    let g = View::of(grad)?;
+    if g.rows != m || g.cols != n {
+        return None;
+    }
+    // Through the ReLU: a new contiguous gradient, as burn-flex's `relu_backward` makes.
+    let dz_tensor = match y {
+        Some(y) => {
+            let y = View::of(y)?;
+            if y.rows != m || y.cols != n {
+                return None;
+            }
+            let mut dz: Vec<f32> = Vec::with_capacity(m * n);
+            for r in 0..m {
+                if y.col_stride == 1 && g.col_stride == 1 {
+                    let yr = &y.data[y.offset + r * y.row_stride..][..n];
+                    let gr = &g.data[g.offset + r * g.row_stride..][..n];
+                    dz.extend(
+                        yr.iter()
+                            .zip(gr)
+                            .map(|(y, g)| if *y > 0.0 { *g } else { 0.0 }),
+                    );
+                } else {
+                    dz.extend((0..n).map(|c| if y.at(r, c) > 0.0 { g.at(r, c) } else { 0.0 }));
+                }
+            }
+            tensor(dz, vec![m, n])
+        }
+        None => grad.clone(),
+    };
+    let dz = View::of(&dz_tensor)?.operand();
+
+    // SAFETY (the three products): operands checked above, sizes positive.
+    // dx = dz W^T: [m, k].
+    let dx = want_x.then(|| {
+        let v = unsafe {
+            new_product(
+                (m, k, n),
+                dz,
+                transposed(w.operand()),
+                parallelism_of(m, k, n),
+            )
+        };
+        tensor(v, vec![m, k])
+    });
+    // dW = x^T dz: [k, n].
+    let dw = unsafe {
+        new_product(
+            (k, n, m),
+            transposed(x.operand()),
+            dz,
+            parallelism_of(k, n, m),
+        )
+    };
+    // db: burn's own first-dimension sum (its summation order depends on the layout).
+    let db = Flex::float_reshape(Flex::float_sum_dim(dz_tensor, 0), Shape::new([n]));
+    Some((dx, tensor(dw, vec![k, n]), db))
+}
