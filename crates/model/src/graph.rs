@@ -133,8 +133,8 @@ impl<B: Pl2MapBackend> GraphNetwork<B> {
 mod tests {
     use super::*;
     use crate::attention::attend;
-    use burn::tensor::activation;
     use crate::testutil::{B, assert_close, pseudo, tensor, values};
+    use burn::tensor::activation;
 
     /// One layer applied to each stream on its own, from the previous values.
     fn separate(

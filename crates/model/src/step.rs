@@ -246,17 +246,20 @@ impl<B: AutodiffBackend<InnerBackend: Pl2MapBackend> + Pl2MapBackend> TrainState
         let work = |g: usize| -> Result<(Vec<LossValues>, Option<GradientsParams>), ModelError> {
             let copy = &copies[g];
             // Each group's share of the batch mean, so that the sum is the mean's gradient.
-            let forward = forward_loss(
-                copy,
-                &samples[ranges[g].clone()],
-                loss,
-                options.progress,
-                group_dropout_seed(options.dropout_seed, g),
-            )
-            .map(|(values, total)| (values, total.map(|t| t.div_scalar(n))));
-            // Every group reaches the barrier, errors included, or the others would wait.
+            let forward = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+                forward_loss(
+                    copy,
+                    &samples[ranges[g].clone()],
+                    loss,
+                    options.progress,
+                    group_dropout_seed(options.dropout_seed, g),
+                )
+                .map(|(values, total)| (values, total.map(|t| t.div_scalar(n))))
+            }));
+            // Every group reaches the barrier, errors and panics included, or the others
+            // would wait for it forever; a panic is raised again after it.
             built.wait();
-            let (values, total) = forward?;
+            let (values, total) = forward.unwrap_or_else(|p| std::panic::resume_unwind(p))?;
             let grads = total.map(|t| GradientsParams::from_grads(t.backward(), copy));
             Ok((values, grads))
         };
@@ -675,5 +678,16 @@ mod tests {
         let mut s = tiny_sample(&cfg, 4, 2);
         s.camera.fx = 0.0;
         assert!(state.step(&s, &options(0, 0.0)).is_err());
+        // In gradient groups side by side, one group's bad image is the step's error
+        // (the other group does not wait for it at the barrier forever).
+        state.set_batch_groups(2, Some(2)).unwrap();
+        let mut bad = tiny_sample(&cfg, 4, 2);
+        bad.point_valid.pop();
+        let batch = vec![tiny_sample(&cfg, 4, 2), bad];
+        let e = state
+            .step_batch(&batch, &options(0, 0.0))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("point_valid"), "{e}");
     }
 }
