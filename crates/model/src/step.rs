@@ -556,8 +556,8 @@ mod tests {
     /// Two trainers in one process (the tests run side by side; a library user may run
     /// two) leave each other's steps alone: a grouped run repeated beside another thread
     /// that keeps stepping its own network gives the weights it gives alone. Without
-    /// the process's autodiff lock about a quarter of the runs differed
-    /// (autodiff_lock.rs).
+    /// the process's autodiff lock a quarter of such runs differed in a probe, and this
+    /// test did not finish within minutes (autodiff_lock.rs).
     #[test]
     fn concurrent_trainers_do_not_change_each_others_steps() {
         let cfg = ModelConfig {
@@ -596,10 +596,19 @@ mod tests {
                 }
                 steps
             });
+            // Stops the other trainer however this thread leaves (a failed comparison
+            // included), so that the scope can end.
+            struct StopOnDrop<'a>(&'a std::sync::atomic::AtomicBool);
+            impl Drop for StopOnDrop<'_> {
+                fn drop(&mut self) {
+                    self.0.store(true, std::sync::atomic::Ordering::Relaxed);
+                }
+            }
+            let stopping = StopOnDrop(&stop);
             for attempt in 0..12 {
                 assert_eq!(run(), alone, "run {attempt} beside another trainer");
             }
-            stop.store(true, std::sync::atomic::Ordering::Relaxed);
+            drop(stopping);
             other.join().unwrap()
         });
         assert!(other_steps > 0, "the other trainer stepped");
