@@ -494,11 +494,10 @@ mod tests {
         assert!(s.step_batch(&[], &options(0, 0.9)).is_err());
     }
 
-    /// Two gradient groups give the stacked step's weights up to rounding, and the same
-    /// weights however many threads run them (or none: one after another).
-    #[test]
-    fn gradient_groups_sum_to_the_batch_gradient_for_any_thread_count() {
-        // No dropout: the groups draw their own masks (the stacked step one stream).
+    /// The gradient-group tests' network and images: no dropout (the groups draw their
+    /// own masks, the stacked step one stream), five images of two sizes whose point
+    /// labels differ, and a probe image to predict on.
+    fn group_fixture() -> (ModelConfig, Vec<Sample>, Sample) {
         let cfg = ModelConfig {
             descriptor_dim: 64,
             head_hidden: vec![256, 256],
@@ -514,22 +513,40 @@ mod tests {
             }
         }
         let probe = tiny_sample(&cfg, 16, 4);
-        let run = |groups: usize, threads: Option<usize>| {
-            let mut s =
-                TrainState::<AD>::init(&cfg, LossConfig::indoor(), 4, &Default::default()).unwrap();
-            s.set_batch_groups(groups, threads).unwrap();
-            let mut losses = Vec::new();
-            for i in 0..3 {
-                let r = s.step_batch(&batch, &options(i, 0.9)).unwrap();
-                assert!(r.updated);
-                losses.push(r.losses.total);
-            }
-            let p = s
-                .inference_model()
-                .predict(&probe.point_descriptors, &probe.line_descriptors)
-                .unwrap();
-            (losses, p)
-        };
+        (cfg, batch, probe)
+    }
+
+    /// Three steps on `batch` from seed 4 in `groups` groups (`threads` as
+    /// `set_batch_groups` takes it): each step's loss and the probe's prediction.
+    fn three_grouped_steps(
+        (cfg, batch, probe): &(ModelConfig, Vec<Sample>, Sample),
+        groups: usize,
+        threads: Option<usize>,
+    ) -> (Vec<f64>, crate::HostPrediction) {
+        let mut s =
+            TrainState::<AD>::init(cfg, LossConfig::indoor(), 4, &Default::default()).unwrap();
+        s.set_batch_groups(groups, threads).unwrap();
+        let mut losses = Vec::new();
+        for i in 0..3 {
+            let r = s.step_batch(batch, &options(i, 0.9)).unwrap();
+            assert!(r.updated);
+            losses.push(r.losses.total);
+        }
+        let p = s
+            .inference_model()
+            .predict(&probe.point_descriptors, &probe.line_descriptors)
+            .unwrap();
+        (losses, p)
+    }
+
+    /// Two gradient groups give the stacked step's weights up to rounding, and the same
+    /// weights however many threads run them (or none: one after another).
+    #[test]
+    fn gradient_groups_sum_to_the_batch_gradient_for_any_thread_count() {
+        let fixture = group_fixture();
+        let (cfg, batch, _) = &fixture;
+        let run =
+            |groups: usize, threads: Option<usize>| three_grouped_steps(&fixture, groups, threads);
         let (stacked_losses, stacked) = run(1, Some(2));
         let (losses, grouped) = run(2, Some(2));
         for (a, b) in losses.iter().zip(&stacked_losses) {
@@ -547,9 +564,9 @@ mod tests {
         }
         // More groups than images: one image each.
         let mut s =
-            TrainState::<AD>::init(&cfg, LossConfig::indoor(), 4, &Default::default()).unwrap();
+            TrainState::<AD>::init(cfg, LossConfig::indoor(), 4, &Default::default()).unwrap();
         s.set_batch_groups(8, Some(2)).unwrap();
-        assert!(s.step_batch(&batch, &options(0, 0.9)).unwrap().updated);
+        assert!(s.step_batch(batch, &options(0, 0.9)).unwrap().updated);
         assert!(s.set_batch_groups(0, None).is_err());
     }
 
@@ -560,34 +577,16 @@ mod tests {
     /// test did not finish within minutes (autodiff_lock.rs).
     #[test]
     fn concurrent_trainers_do_not_change_each_others_steps() {
-        let cfg = ModelConfig {
-            descriptor_dim: 64,
-            head_hidden: vec![256, 256],
-            dropout: 0.0,
-            ..tiny_config()
-        };
-        let batch: Vec<Sample> = (0..5)
-            .map(|i| tiny_sample(&cfg, 40 + 8 * (i % 2), 6))
-            .collect();
-        let probe = tiny_sample(&cfg, 16, 4);
-        let run = || {
-            let mut s =
-                TrainState::<AD>::init(&cfg, LossConfig::indoor(), 4, &Default::default()).unwrap();
-            s.set_batch_groups(2, Some(2)).unwrap();
-            for i in 0..3 {
-                s.step_batch(&batch, &options(i, 0.9)).unwrap();
-            }
-            s.inference_model()
-                .predict(&probe.point_descriptors, &probe.line_descriptors)
-                .unwrap()
-        };
+        let fixture = group_fixture();
+        let cfg = &fixture.0;
+        let run = || three_grouped_steps(&fixture, 2, Some(2)).1;
         let alone = run();
         let stop = std::sync::atomic::AtomicBool::new(false);
         let other_steps = std::thread::scope(|scope| {
             let other = scope.spawn(|| {
-                let sample = tiny_sample(&cfg, 6, 3);
+                let sample = tiny_sample(cfg, 6, 3);
                 let mut s =
-                    TrainState::<AD>::init(&cfg, LossConfig::indoor(), 9, &Default::default())
+                    TrainState::<AD>::init(cfg, LossConfig::indoor(), 9, &Default::default())
                         .unwrap();
                 let mut steps = 0;
                 while !stop.load(std::sync::atomic::Ordering::Relaxed) {
