@@ -12,14 +12,14 @@
 //! composed operations compute with fewer buffers (docs/performance.md, "Attention as one
 //! operation"); the others return None and `attention.rs` composes burn's operations.
 
-use crate::{attention_kernel, dense_kernel};
+use crate::{attention_kernel, dense_kernel, permute};
 use burn::backend::Autodiff;
 use burn::backend::autodiff::checkpoint::base::Checkpointer;
 use burn::backend::autodiff::checkpoint::strategy::CheckpointStrategy;
 use burn::backend::autodiff::grads::Gradients;
 use burn::backend::autodiff::ops::{Backward, Ops, OpsKind, unary};
 use burn::tensor::ops::FloatTensor;
-use burn::tensor::{Tensor, TensorMetadata, TensorPrimitive, backend::Backend};
+use burn::tensor::{Shape, Tensor, TensorMetadata, TensorPrimitive, backend::Backend};
 
 /// A burn backend with the softmax this network uses.
 pub trait Pl2MapBackend: Backend {
@@ -103,6 +103,18 @@ pub trait Pl2MapBackend: Backend {
     ) -> Option<DenseGradients<Self>> {
         None
     }
+
+    /// `x` reshaped to `shape`, then its dimensions permuted by `axes`, as one recorded
+    /// operation on autodiff backends (`permute.rs`).
+    fn reshape_permute(x: FloatTensor<Self>, shape: Shape, axes: &[usize]) -> FloatTensor<Self> {
+        Self::float_permute(Self::float_reshape(x, shape), axes)
+    }
+
+    /// A row-major copy of `x` where the backend has a faster one than its reshape
+    /// makes (`permute.rs`); None: the backend's own.
+    fn contiguous(_x: &FloatTensor<Self>) -> Option<FloatTensor<Self>> {
+        None
+    }
 }
 
 /// A dense layer's gradients: of its input (when asked for), weight and bias.
@@ -147,6 +159,10 @@ impl Pl2MapBackend for burn::backend::Flex {
         want_x: bool,
     ) -> Option<DenseGradients<Self>> {
         dense_kernel::backward(x, w, y, &grad, want_x)
+    }
+
+    fn contiguous(x: &FloatTensor<Self>) -> Option<FloatTensor<Self>> {
+        permute::contiguous(x)
     }
 }
 
@@ -235,7 +251,38 @@ impl<B: Pl2MapBackend> Backward<B, 3> for Dense {
     }
 }
 
+/// `reshape_permute`'s recorded operation (parent x).
+#[derive(Debug)]
+struct ReshapePermute;
+
+impl<B: Pl2MapBackend> Backward<B, 1> for ReshapePermute {
+    /// The input's shape and the permutation.
+    type State = (Shape, Vec<usize>);
+
+    fn backward(self, ops: Ops<Self::State, 1>, grads: &mut Gradients, _: &mut Checkpointer) {
+        let (shape, axes) = ops.state;
+        unary::<B, _>(ops.parents, ops.node, grads, |grad| {
+            let back = B::float_permute(grad, &permute::inverse(&axes));
+            let back = B::contiguous(&back).unwrap_or(back);
+            B::float_reshape(back, shape)
+        });
+    }
+}
+
 impl<B: Pl2MapBackend, C: CheckpointStrategy> Pl2MapBackend for Autodiff<B, C> {
+    fn reshape_permute(x: FloatTensor<Self>, shape: Shape, axes: &[usize]) -> FloatTensor<Self> {
+        let input_shape = x.primitive.shape();
+        let out = B::reshape_permute(x.primitive, shape, axes);
+        match ReshapePermute
+            .prepare::<C>([x.node.clone()])
+            .compute_bound()
+            .stateful()
+        {
+            OpsKind::Tracked(prep) => prep.finish((input_shape, axes.to_vec()), out),
+            OpsKind::UnTracked(prep) => prep.finish(out),
+        }
+    }
+
     fn dense(
         x: FloatTensor<Self>,
         w: FloatTensor<Self>,

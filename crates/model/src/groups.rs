@@ -14,11 +14,12 @@
 //! step exactly.
 
 use crate::error::ModelError;
-use burn::module::{Module, ModuleMapper, ModuleVisitor, Param};
+use burn::module::{Module, ModuleMapper, ModuleVisitor, Param, ParamId};
 use burn::optim::GradientsParams;
 use burn::tensor::Tensor;
 use burn::tensor::backend::AutodiffBackend;
-use std::marker::PhantomData;
+use rayon::prelude::*;
+use std::collections::HashMap;
 use std::ops::Range;
 
 /// `groups` contiguous, non-empty ranges covering `0..n` (fewer when `n < groups`), their
@@ -112,38 +113,68 @@ impl<B: AutodiffBackend> ModuleMapper<B> for OwnLeaves {
 
 /// The sum of the groups' gradients, parameter by parameter, added in group order (a
 /// parameter that no group's loss reached has none, as after one backward pass).
+///
+/// The parameters are summed side by side (one task each): each addition is one pass
+/// over its parameter on one thread, and with the sum on one thread the step's second
+/// core sat idle for about a millisecond a step. Each element is still `g0 + g1 + ...`
+/// in group order, so the task split never changes a bit.
 pub fn sum_gradients<B: AutodiffBackend, M: Module<B>>(
     model: &M,
     mut parts: Vec<GradientsParams>,
 ) -> GradientsParams {
-    let mut sum = Sum::<B> {
+    let mut collect = Collect::<B> {
         parts: &mut parts,
-        out: GradientsParams::new(),
-        backend: PhantomData,
+        found: Vec::new(),
     };
-    model.visit(&mut sum);
-    sum.out
+    model.visit(&mut collect);
+    let sums: HashMap<ParamId, Tensor<B::InnerBackend, 1>> = collect
+        .found
+        .into_par_iter()
+        .filter_map(|(id, grads)| {
+            let total = grads.into_iter().reduce(|total, g| total + g)?;
+            Some((id, total))
+        })
+        .collect();
+    let mut register = Register::<B> {
+        sums,
+        out: GradientsParams::new(),
+    };
+    model.visit(&mut register);
+    register.out
 }
 
-struct Sum<'a, B> {
+/// Each parameter's group gradients, in group order, flattened (a reshape of the
+/// contiguous gradient: no copy) so that parameters of every rank share one list.
+struct Collect<'a, B: AutodiffBackend> {
     parts: &'a mut [GradientsParams],
-    out: GradientsParams,
-    backend: PhantomData<B>,
+    found: Vec<(ParamId, Vec<Tensor<B::InnerBackend, 1>>)>,
 }
 
-impl<B: AutodiffBackend> ModuleVisitor<B> for Sum<'_, B> {
+impl<B: AutodiffBackend> ModuleVisitor<B> for Collect<'_, B> {
     fn visit_float<const D: usize>(&mut self, param: &Param<Tensor<B, D>>) {
-        let mut total: Option<Tensor<B::InnerBackend, D>> = None;
-        for part in self.parts.iter_mut() {
-            if let Some(g) = part.remove::<B::InnerBackend, D>(param.id) {
-                total = Some(match total {
-                    None => g,
-                    Some(t) => t + g,
-                });
-            }
+        let grads: Vec<_> = self
+            .parts
+            .iter_mut()
+            .filter_map(|part| part.remove::<B::InnerBackend, D>(param.id))
+            .map(|g| g.flatten::<1>(0, D - 1))
+            .collect();
+        if !grads.is_empty() {
+            self.found.push((param.id, grads));
         }
-        if let Some(t) = total {
-            self.out.register(param.id, t);
+    }
+}
+
+/// Files each sum under its parameter, in the parameter's shape again.
+struct Register<B: AutodiffBackend> {
+    sums: HashMap<ParamId, Tensor<B::InnerBackend, 1>>,
+    out: GradientsParams,
+}
+
+impl<B: AutodiffBackend> ModuleVisitor<B> for Register<B> {
+    fn visit_float<const D: usize>(&mut self, param: &Param<Tensor<B, D>>) {
+        if let Some(sum) = self.sums.remove(&param.id) {
+            let dims = param.val().dims();
+            self.out.register(param.id, sum.reshape(dims));
         }
     }
 }

@@ -44,6 +44,7 @@ mod init;
 pub mod line_encoder;
 pub mod loss;
 pub mod network;
+pub mod permute;
 pub mod sample;
 pub mod step;
 #[cfg(test)]

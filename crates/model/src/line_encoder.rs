@@ -12,6 +12,7 @@ use crate::backend::{Pl2MapBackend, softmax_last};
 use crate::dense::dense;
 use crate::dropout::Dropout;
 use crate::init::Initializer;
+use crate::permute::reshape_permute;
 use burn::module::Module;
 use burn::nn::{LayerNorm, Linear};
 use burn::tensor::{Tensor, activation, backend::Backend};
@@ -52,12 +53,16 @@ impl<B: Pl2MapBackend> LineEncoder<B> {
         let token0 = lines.clone().narrow(1, 0, 1).reshape([m, d]);
         let flat = lines.reshape([m * t, d]);
         // [M, h, T, dk] and [M, h, dk, T]
-        let k = dense(&self.attention.key, flat.clone(), false)
-            .reshape([m, t, h, dk])
-            .permute([0, 2, 3, 1]);
-        let v = dense(&self.attention.value, flat, false)
-            .reshape([m, t, h, dk])
-            .swap_dims(1, 2);
+        let k = reshape_permute(
+            dense(&self.attention.key, flat.clone(), false),
+            [m, t, h, dk],
+            [0, 2, 3, 1],
+        );
+        let v = reshape_permute(
+            dense(&self.attention.value, flat, false),
+            [m, t, h, dk],
+            [0, 2, 1, 3],
+        );
         let q = dense(&self.attention.query, token0.clone(), false)
             .mul_scalar(scale)
             .reshape([m, h, 1, dk]);

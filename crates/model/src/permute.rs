@@ -1,0 +1,164 @@
+//! A reshape followed by a permutation as one recorded operation, whose backward pass
+//! makes the gradient contiguous with a direct strided copy.
+//!
+//! Why: the line encoder splits its keys and values into heads (`[M*T, D]` ->
+//! `[M, T, h, dk]` -> `[M, h, dk, T]` / `[M, h, T, dk]`, line_encoder.rs). Composed from
+//! burn's operations, the backward pass of that reshape receives the permuted-back
+//! gradient, a 3-D or 4-D view that burn-flex cannot reshape in place, and burn-flex
+//! copies it element by element through its generic strided iterator: about 4 % of the
+//! main job's training step (docs/performance.md, "The main job's step"). The forward pass
+//! here is burn's reshape and permute (the same views, so the products that read them
+//! are unchanged), and the backward pass permutes the gradient back and copies it with
+//! nested loops of fixed strides (`contiguous`), which gives the same values: a copy.
+
+use crate::backend::Pl2MapBackend;
+use crate::flex_matrix;
+use burn::tensor::{DType, Tensor, TensorPrimitive};
+use burn_flex::FlexTensor;
+
+/// `x.reshape(shape).permute(axes)` (`axes` a permutation of `0..D2`), recorded as one
+/// operation on autodiff backends.
+pub fn reshape_permute<B: Pl2MapBackend, const D1: usize, const D2: usize>(
+    x: Tensor<B, D1>,
+    shape: [usize; D2],
+    axes: [usize; D2],
+) -> Tensor<B, D2> {
+    Tensor::from_primitive(TensorPrimitive::Float(B::reshape_permute(
+        x.into_primitive().tensor(),
+        shape.into(),
+        &axes,
+    )))
+}
+
+/// The permutation that undoes `axes`.
+pub(crate) fn inverse(axes: &[usize]) -> Vec<usize> {
+    let mut inv = vec![0; axes.len()];
+    for (i, &a) in axes.iter().enumerate() {
+        inv[a] = i;
+    }
+    inv
+}
+
+/// A row-major copy of an f32 tensor with non-negative strides inside its storage.
+/// None for other dtypes or layouts (the caller then uses burn-flex's own copy).
+pub(crate) fn contiguous(t: &FlexTensor) -> Option<FlexTensor> {
+    if t.dtype() != DType::F32 {
+        return None;
+    }
+    let layout = t.layout();
+    let shape: Vec<usize> = layout.shape().iter().copied().collect();
+    let strides = layout
+        .strides()
+        .iter()
+        .map(|&s| usize::try_from(s).ok())
+        .collect::<Option<Vec<usize>>>()?;
+    let src = t.storage::<f32>();
+    let offset = layout.start_offset();
+    let n: usize = shape.iter().product();
+    if n > 0 {
+        let last = offset
+            + shape
+                .iter()
+                .zip(&strides)
+                .map(|(&d, &s)| (d - 1) * s)
+                .sum::<usize>();
+        if last >= src.len() {
+            return None;
+        }
+    }
+    let mut out = Vec::with_capacity(n);
+    if n > 0 {
+        copy_dims(&mut out, src, offset, &shape, &strides);
+    }
+    Some(flex_matrix::tensor(out, shape))
+}
+
+/// Appends the elements of the view (`shape`, `strides` from `offset`) in row-major
+/// order; the bounds were checked by the caller.
+fn copy_dims(out: &mut Vec<f32>, src: &[f32], offset: usize, shape: &[usize], strides: &[usize]) {
+    match (shape, strides) {
+        ([], _) => out.push(src[offset]),
+        ([n], [1]) => out.extend_from_slice(&src[offset..offset + n]),
+        ([n], [s]) => out.extend((0..*n).map(|i| src[offset + i * s])),
+        _ => {
+            for i in 0..shape[0] {
+                copy_dims(
+                    out,
+                    src,
+                    offset + i * strides[0],
+                    &shape[1..],
+                    &strides[1..],
+                );
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::testutil::{AD, B, pseudo, tensor, values};
+
+    fn bits(v: &[f32]) -> Vec<u32> {
+        v.iter().map(|x| x.to_bits()).collect()
+    }
+
+    /// The copy equals burn-flex's own for the line encoder's two head layouts, a
+    /// narrowed view (offset and gaps) and a plain contiguous tensor.
+    #[test]
+    fn copies_like_burn_flex() {
+        let (m, t, h, dk) = (5, 3, 2, 4);
+        let x = tensor::<B, 2>(pseudo(m * t * h * dk, 1), [m * t, h * dk]);
+        let views: Vec<Tensor<B, 4>> = vec![
+            x.clone().reshape([m, t, h, dk]).permute([0, 2, 3, 1]),
+            x.clone().reshape([m, t, h, dk]).swap_dims(1, 2),
+            x.clone()
+                .reshape([m, t, h, dk])
+                .narrow(3, 1, 2)
+                .swap_dims(0, 2),
+            x.clone().reshape([m, t, h, dk]),
+        ];
+        for view in views {
+            let flex = view.clone().into_primitive().tensor();
+            let ours = contiguous(&flex).expect("an f32 view with positive strides");
+            assert!(ours.layout().is_contiguous());
+            let theirs = flex.to_contiguous();
+            assert_eq!(ours.layout().shape(), theirs.layout().shape());
+            assert_eq!(
+                bits(ours.storage::<f32>()),
+                bits(&theirs.storage::<f32>()[..ours.storage::<f32>().len()])
+            );
+        }
+    }
+
+    /// Forward values and the input's gradient equal those of burn's reshape and
+    /// permute, bit for bit, for both of the line encoder's head splits.
+    #[test]
+    fn matches_burns_reshape_and_permute() {
+        // Differentiates: not beside another thread's graphs (autodiff_lock.rs).
+        let _autodiff = crate::autodiff_lock::exclusive();
+        let (m, t, h, dk) = (6, 4, 2, 3);
+        let x = pseudo(m * t * h * dk, 2);
+        let w = pseudo(m * t * h * dk, 3);
+        for axes in [[0, 2, 3, 1], [0, 2, 1, 3]] {
+            let run = |fused: bool| {
+                let xt = tensor::<AD, 2>(x.clone(), [m * t, h * dk]).require_grad();
+                let y = if fused {
+                    reshape_permute(xt.clone(), [m, t, h, dk], axes)
+                } else {
+                    xt.clone().reshape([m, t, h, dk]).permute(axes)
+                };
+                let dims = y.dims();
+                // A weighting that differs per element, so a misplaced gradient shows.
+                let weights = tensor::<AD, 4>(w.clone(), dims);
+                let grads = (y.clone() * weights).sum().backward();
+                let gx = xt.grad(&grads).expect("x has a gradient");
+                (values(&y.inner()), values(&gx))
+            };
+            let (y_ours, g_ours) = run(true);
+            let (y_burn, g_burn) = run(false);
+            assert_eq!(bits(&y_ours), bits(&y_burn), "forward, axes {axes:?}");
+            assert_eq!(bits(&g_ours), bits(&g_burn), "gradient, axes {axes:?}");
+        }
+    }
+}
