@@ -13,6 +13,7 @@
 //! depends on the grouping (not on how many threads run it). One group is the stacked
 //! step exactly.
 
+use crate::backend::Pl2MapBackend;
 use crate::error::ModelError;
 use burn::module::{Module, ModuleMapper, ModuleVisitor, Param, ParamId};
 use burn::optim::GradientsParams;
@@ -114,27 +115,31 @@ impl<B: AutodiffBackend> ModuleMapper<B> for OwnLeaves {
 /// The sum of the groups' gradients, parameter by parameter, added in group order (a
 /// parameter that no group's loss reached has none, as after one backward pass).
 ///
-/// The parameters are summed side by side (one task each): each addition is one pass
-/// over its parameter on one thread, and with the sum on one thread the step's second
-/// core sat idle for about a millisecond a step. Each element is still `g0 + g1 + ...`
-/// in group order, so the task split never changes a bit.
-pub fn sum_gradients<B: AutodiffBackend, M: Module<B>>(
-    model: &M,
-    mut parts: Vec<GradientsParams>,
-) -> GradientsParams {
+/// On host-memory backends the parameters are summed side by side (one task each):
+/// each addition is one pass over its parameter on one thread, and with the sum on one
+/// thread the step's second core sat idle for about a millisecond a step. Each element
+/// is still `g0 + g1 + ...` in group order, so the task split never changes a bit. A
+/// GPU backend's additions are queued from the calling thread, one after another.
+pub fn sum_gradients<B, M>(model: &M, mut parts: Vec<GradientsParams>) -> GradientsParams
+where
+    B: AutodiffBackend<InnerBackend: Pl2MapBackend>,
+    M: Module<B>,
+{
     let mut collect = Collect::<B> {
         parts: &mut parts,
         found: Vec::new(),
     };
     model.visit(&mut collect);
-    let sums: HashMap<ParamId, Tensor<B::InnerBackend, 1>> = collect
-        .found
-        .into_par_iter()
-        .filter_map(|(id, grads)| {
-            let total = grads.into_iter().reduce(|total, g| total + g)?;
-            Some((id, total))
-        })
-        .collect();
+    let add = |(id, grads): (ParamId, Vec<Tensor<B::InnerBackend, 1>>)| {
+        let total = grads.into_iter().reduce(|total, g| total + g)?;
+        Some((id, total))
+    };
+    let sums: HashMap<ParamId, Tensor<B::InnerBackend, 1>> =
+        if <B::InnerBackend as Pl2MapBackend>::HOST_MEMORY {
+            collect.found.into_par_iter().filter_map(add).collect()
+        } else {
+            collect.found.into_iter().filter_map(add).collect()
+        };
     let mut register = Register::<B> {
         sums,
         out: GradientsParams::new(),
