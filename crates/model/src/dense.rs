@@ -35,12 +35,7 @@ pub(crate) fn dense_composed<B: Pl2MapBackend>(
 mod tests {
     use super::*;
     use crate::init::Initializer;
-    use crate::testutil::{AD, B, pseudo, tensor, values};
-
-    /// Bit patterns, so that equality also tells -0.0 from 0.0 and compares NaNs.
-    fn bits(v: &[f32]) -> Vec<u32> {
-        v.iter().map(|x| x.to_bits()).collect()
-    }
+    use crate::testutil::{AD, B, bits, pseudo, tensor, values};
 
     /// A three-layer MLP (ReLU, ReLU, plain) on rows sliced out of a larger tensor,
     /// through the kernel and through burn's operations: the outputs and the gradients

@@ -42,10 +42,12 @@ impl<'a> View<'a> {
             row_stride,
             col_stride,
         };
-        let fits = view.rows == 0
-            || view.cols == 0
-            || view.offset + (view.rows - 1) * row_stride + (view.cols - 1) * col_stride
-                < view.data.len();
+        let fits = within(
+            view.data.len(),
+            view.offset,
+            &[view.rows, view.cols],
+            &[row_stride, col_stride],
+        );
         fits.then_some(view)
     }
 
@@ -63,6 +65,21 @@ impl<'a> View<'a> {
     pub fn at(&self, r: usize, c: usize) -> f32 {
         self.data[self.offset + r * self.row_stride + c * self.col_stride]
     }
+}
+
+/// Whether every element of the view (`shape` and `strides` from `offset`) lies inside
+/// a storage of `len` elements (an empty view always does).
+pub(crate) fn within(len: usize, offset: usize, shape: &[usize], strides: &[usize]) -> bool {
+    if shape.contains(&0) {
+        return true;
+    }
+    let last = offset
+        + shape
+            .iter()
+            .zip(strides)
+            .map(|(&d, &s)| (d - 1) * s)
+            .sum::<usize>();
+    last < len
 }
 
 /// A strided matrix operand of one product: first element and (row, column) strides.

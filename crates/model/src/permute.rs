@@ -55,18 +55,10 @@ pub(crate) fn contiguous(t: &FlexTensor) -> Option<FlexTensor> {
         .collect::<Option<Vec<usize>>>()?;
     let src = t.storage::<f32>();
     let offset = layout.start_offset();
-    let n: usize = shape.iter().product();
-    if n > 0 {
-        let last = offset
-            + shape
-                .iter()
-                .zip(&strides)
-                .map(|(&d, &s)| (d - 1) * s)
-                .sum::<usize>();
-        if last >= src.len() {
-            return None;
-        }
+    if !flex_matrix::within(src.len(), offset, &shape, &strides) {
+        return None;
     }
+    let n: usize = shape.iter().product();
     let mut out = Vec::with_capacity(n);
     if n > 0 {
         copy_dims(&mut out, src, offset, &shape, &strides);
@@ -98,11 +90,7 @@ fn copy_dims(out: &mut Vec<f32>, src: &[f32], offset: usize, shape: &[usize], st
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::testutil::{AD, B, pseudo, tensor, values};
-
-    fn bits(v: &[f32]) -> Vec<u32> {
-        v.iter().map(|x| x.to_bits()).collect()
-    }
+    use crate::testutil::{AD, B, bits, pseudo, tensor, values};
 
     /// The copy equals burn-flex's own for the line encoder's two head layouts and a
     /// narrowed view (offset and gaps); a row-major tensor is left to burn-flex.

@@ -37,6 +37,11 @@ pub fn flat(p: &crate::HostPrediction) -> Vec<f32> {
         .collect()
 }
 
+/// Bit patterns, so that equality also tells -0.0 from 0.0 and compares NaNs.
+pub fn bits(v: &[f32]) -> Vec<u32> {
+    v.iter().map(|x| x.to_bits()).collect()
+}
+
 pub fn values<Bk: Backend, const K: usize>(t: &Tensor<Bk, K>) -> Vec<f32> {
     t.to_data().convert::<f32>().to_vec::<f32>().unwrap()
 }
