@@ -18,7 +18,7 @@ struct Shape {
     rhs_transposed: bool,
 }
 
-fn seconds_per_product(s: &Shape, parallelism: gemm::Parallelism) -> f64 {
+fn seconds_per_product(s: &Shape, parallelism: gemm::Parallelism, split: usize) -> f64 {
     let a = vec![0.5f32; s.m * s.k];
     let b = vec![0.25f32; s.k * s.n];
     let mut c = vec![0.0f32; s.m * s.n];
@@ -34,18 +34,25 @@ fn seconds_per_product(s: &Shape, parallelism: gemm::Parallelism) -> f64 {
         (1, s.n as isize)
     };
     let run = |c: &mut [f32]| {
+        use rayon::prelude::*;
+        let rows = s.m.div_ceil(split);
+        let cp = c.as_mut_ptr() as usize;
+        let ap = a.as_ptr() as usize;
+        (0..split).into_par_iter().for_each(|i| {
+        let r0 = i * rows;
+        let mr = rows.min(s.m - r0);
         // SAFETY: a, b and c hold m x k, k x n and m x n elements, reached through the
         // strides above.
         unsafe {
             gemm::gemm(
-                s.m,
+                mr,
                 s.n,
                 s.k,
-                c.as_mut_ptr(),
+                (cp as *mut f32).add(r0 * s.n),
                 1,
                 s.n as isize,
                 false,
-                a.as_ptr(),
+                (ap as *const f32).offset(r0 as isize * lhs_rs),
                 lhs_cs,
                 lhs_rs,
                 b.as_ptr(),
@@ -59,6 +66,7 @@ fn seconds_per_product(s: &Shape, parallelism: gemm::Parallelism) -> f64 {
                 parallelism,
             )
         }
+        });
     };
     for _ in 0..10 {
         run(&mut c);
@@ -76,6 +84,14 @@ fn main() {
         ("point head, hidden layer", 512, 512, 512, false, false),
         ("  its input gradient", 512, 512, 512, false, true),
         ("  its weight gradient", 512, 512, 512, true, false),
+        ("g 1024x128x128", 1024, 128, 128, false, false),
+        ("g dW 128x1024x128", 128, 1024, 128, true, false),
+        ("g 1024x256x256", 1024, 256, 256, false, false),
+        ("g dW 256x1024x256", 256, 1024, 256, true, false),
+        ("g 1024x128x512", 1024, 128, 512, false, false),
+        ("g 1024x512x1024", 1024, 512, 1024, false, false),
+        ("g dx 1024x1024x512", 1024, 1024, 512, false, true),
+        ("g dW 512x1024x1024", 512, 1024, 1024, true, false),
         ("line head, hidden layer", 192, 512, 512, false, false),
         ("  its input gradient", 192, 512, 512, false, true),
         ("  its weight gradient", 512, 192, 512, true, false),
@@ -93,8 +109,9 @@ fn main() {
             rhs_transposed,
         };
         let flop = 2.0 * (m * k * n) as f64;
-        let one = flop / seconds_per_product(&s, gemm::Parallelism::None) / 1e9;
-        let all = flop / seconds_per_product(&s, gemm::Parallelism::Rayon(0)) / 1e9;
-        println!("| {} | {m} x {k} x {n} | {one:.0} | {all:.0} |", s.what);
+        let one = flop / seconds_per_product(&s, gemm::Parallelism::None, 1) / 1e9;
+        let all = flop / seconds_per_product(&s, gemm::Parallelism::Rayon(0), 1) / 1e9;
+        let sp = flop / seconds_per_product(&s, gemm::Parallelism::None, threads) / 1e9;
+        println!("| {} | {m} x {k} x {n} | {one:.0} | {all:.0} | {sp:.0} |", s.what);
     }
 }

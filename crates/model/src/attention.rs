@@ -184,8 +184,9 @@ mod tests {
 
     /// The Flex kernel (attention_kernel.rs) against burn's composed operations: the
     /// output and the gradients of q, k and v, on operands that are row slices of larger
-    /// tensors (as the graph network passes them), several images and heads. They are
-    /// the same operations on the same values, so the results are equal bit for bit.
+    /// tensors (as the graph network passes them), several images and heads. The products
+    /// are the same; the kernel's softmax (softmax_rows.rs) has its own exponential and
+    /// sums, so the results agree to a few f32 ulp, not bit for bit.
     #[test]
     fn the_kernel_matches_the_composed_path() {
         // Differentiates: not beside another thread's graphs (autodiff_lock.rs).
@@ -223,8 +224,8 @@ mod tests {
         assert!(kernel_runs(tensor::<B, 2>(x.clone(), [rows, d]), shape));
         let (out_kernel, grad_kernel) = run(true);
         let (out_composed, grad_composed) = run(false);
-        assert_eq!(out_kernel, out_composed);
-        assert_eq!(grad_kernel, grad_composed);
+        assert_close(&out_kernel, &out_composed, 2e-6);
+        assert_close(&grad_kernel, &grad_composed, 2e-6);
         // And without autodiff.
         let plain = |kernel: bool| {
             let q = tensor::<B, 2>(x[..g * nq * d].to_vec(), [g * nq, d]);
@@ -236,6 +237,6 @@ mod tests {
             };
             values(&out)
         };
-        assert_eq!(plain(true), plain(false));
+        assert_close(&plain(true), &plain(false), 2e-6);
     }
 }

@@ -16,7 +16,8 @@
 //! Every task is a fixed block (one image and head), so results never depend on the
 //! number of threads.
 
-use crate::flex_matrix::{Operand, View, row_major, tensor, transposed};
+use crate::flex_matrix::{Operand, SendPtr, View, row_major, tensor, transposed};
+use crate::softmax_rows::{softmax_backward_rows, softmax_rows};
 use burn::backend::Flex;
 use burn::tensor::Scalar;
 use burn::tensor::ops::FloatTensorOps;
@@ -29,12 +30,6 @@ use rayon::prelude::*;
 unsafe fn product(dst: *mut f32, m: usize, n: usize, k: usize, lhs: Operand, rhs: Operand) {
     unsafe { crate::flex_matrix::product(dst, (m, n, k), lhs, rhs, gemm::Parallelism::None) }
 }
-
-/// Raw operand pointers may cross to the rayon tasks: every task only reads them.
-#[derive(Clone, Copy)]
-struct Shared(Operand);
-unsafe impl Send for Shared {}
-unsafe impl Sync for Shared {}
 
 /// `blocks` products of `m x n` each into one new buffer, block b written by
 /// `product_b(b, dst)` (one task per block: the split never depends on the threads).
@@ -61,10 +56,6 @@ unsafe fn block_products(
     unsafe { out.set_len(len) };
     out
 }
-
-struct SendPtr(*mut f32);
-unsafe impl Send for SendPtr {}
-unsafe impl Sync for SendPtr {}
 
 /// The sizes of one call: `groups` images of nq queries and nk keys, `heads` heads of dk.
 #[derive(Clone, Copy, Debug)]
@@ -110,9 +101,9 @@ impl Dims {
     }
 
     /// Every block's head of a [groups * rows, d] view (block = image * heads + head).
-    fn heads_of(&self, t: &View<'_>, rows: usize) -> Vec<Shared> {
+    fn heads_of(&self, t: &View<'_>, rows: usize) -> Vec<Operand> {
         (0..self.blocks())
-            .map(|b| Shared(self.head(t, rows, b)))
+            .map(|b| self.head(t, rows, b))
             .collect()
     }
 
@@ -164,15 +155,12 @@ pub(crate) fn forward(
     // Dims::of; every product has positive sizes and writes its whole block.
     let scores = unsafe {
         block_products(dims.blocks(), nq, nk, |b, dst| {
-            product(dst, nq, nk, dk, qs_ops[b].0, transposed(k_ops[b].0))
+            product(dst, nq, nk, dk, qs_ops[b], transposed(k_ops[b]))
         })
     };
-    let probs = <Flex as crate::Pl2MapBackend>::softmax_last(tensor(
-        scores,
-        vec![dims.groups, heads, nq, nk],
-    ))
-    .to_contiguous();
-    let p = probs.as_slice::<f32>()?;
+    let mut probs = scores;
+    softmax_rows(&mut probs, nk);
+    let p = &probs[..];
 
     let v_ops = dims.heads_of(&vv, nk);
     let per_head = unsafe {
@@ -183,7 +171,7 @@ pub(crate) fn forward(
                 dk,
                 nk,
                 row_major(&p[b * nq * nk..], nk),
-                v_ops[b].0,
+                v_ops[b],
             )
         })
     };
@@ -191,7 +179,15 @@ pub(crate) fn forward(
         dims.merge_heads(&per_head, nq),
         vec![dims.groups * nq, dims.d],
     );
-    Some((output, [q_scaled, k.clone(), v.clone(), probs]))
+    Some((
+        output,
+        [
+            q_scaled,
+            k.clone(),
+            v.clone(),
+            tensor(probs, vec![dims.groups, heads, nq, nk]),
+        ],
+    ))
 }
 
 /// The gradients of the queries, keys and values from the output's gradient `grad`.
@@ -227,29 +223,11 @@ pub(crate) fn backward(
     // Through the second product (P V): dP = dO V^T.
     let mut dp = unsafe {
         block_products(dims.blocks(), nq, nk, |b, dst| {
-            product(dst, nq, nk, dk, g_ops[b].0, transposed(v_ops[b].0))
+            product(dst, nq, nk, dk, g_ops[b], transposed(v_ops[b]))
         })
     };
-    // Through the softmax (backend.rs, SoftmaxLast): dS = (dP - sum(dP * P)) * P, with
-    // burn-flex's own sum over the last dimension.
-    let chunk = 64 * nk;
-    let weighted: Vec<f32> = dp
-        .par_iter()
-        .with_min_len(chunk)
-        .zip(probs.par_iter())
-        .map(|(g, y)| g * y)
-        .collect();
-    let dot = Flex::float_sum_dim(tensor(weighted, vec![probs.len() / nk, nk]), 1).to_contiguous();
-    let dot = dot.as_slice::<f32>()?;
-    dp.par_chunks_mut(chunk)
-        .zip(probs.par_chunks(chunk).zip(dot.par_chunks(64)))
-        .for_each(|(g, (y, dot))| {
-            for ((g, y), dot) in g.chunks_exact_mut(nk).zip(y.chunks_exact(nk)).zip(dot) {
-                for (g, y) in g.iter_mut().zip(y) {
-                    *g = (*g - dot) * y;
-                }
-            }
-        });
+    // Through the softmax: dS = (dP - sum(dP * P)) * P, row by row.
+    softmax_backward_rows(&mut dp, probs, nk);
     let ds = &dp;
 
     // Through the first product (Q' K^T): dQ' = dS K, d(K^T) = Q'^T dS.
@@ -261,7 +239,7 @@ pub(crate) fn backward(
                 dk,
                 nk,
                 row_major(&ds[b * nq * nk..], nk),
-                k_ops[b].0,
+                k_ops[b],
             )
         })
     };
@@ -272,7 +250,7 @@ pub(crate) fn backward(
                 dk,
                 nk,
                 nq,
-                transposed(q_ops[b].0),
+                transposed(q_ops[b]),
                 row_major(&ds[b * nq * nk..], nk),
             )
         })
@@ -286,7 +264,7 @@ pub(crate) fn backward(
                 dk,
                 nq,
                 transposed(row_major(&probs[b * nq * nk..], nk)),
-                g_ops[b].0,
+                g_ops[b],
             )
         })
     };
