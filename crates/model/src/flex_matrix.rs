@@ -9,6 +9,7 @@
 
 use burn::tensor::{Bytes, DType, Shape};
 use burn_flex::{FlexTensor, Layout};
+use rayon::prelude::*;
 
 /// A 2-D f32 operand read in place: storage, first element, (row, column) strides.
 #[derive(Clone, Copy)]
@@ -133,9 +134,10 @@ pub(crate) fn parallelism_of(m: usize, n: usize, k: usize) -> gemm::Parallelism 
 /// products) and reached 159 GFLOP/s on two threads where one thread alone reached 199
 /// (the weight gradient of a 128-wide layer over 1024 rows, `examples/gemm_rate.rs`,
 /// 2-core Intel Xeon VM); independent bands reached 228. Every element of dst is the
-/// same sum in the same order either way: gemm's blocking of k depends on k alone once
-/// dst has more than 64 columns or a band more than 64 rows (below that gemm takes
-/// other paths, and the product is not split).
+/// same sum in the same order either way (test `row_bands_equal_gemms_threaded_product`):
+/// gemm works on the transpose of a row-major dst, and once dst has more than 64
+/// columns and a band at least 16 rows, it blocks k by k's length alone and takes
+/// neither its small-matrix nor its single-row paths, for the whole or for a band.
 ///
 /// SAFETY: dst points to m x n writable elements; lhs reaches m x k and rhs k x n valid
 /// elements through their strides; m, n, k > 0.
@@ -156,36 +158,33 @@ pub(crate) unsafe fn product(
     }
     let rows = m.div_ceil(bands);
     let dst = SendPtr(dst);
-    rayon::prelude::ParallelIterator::for_each(
-        rayon::prelude::IntoParallelIterator::into_par_iter(0..bands),
-        |band| {
-            // Whole values, not their raw-pointer fields, cross to the tasks.
-            let (dst, lhs) = (&dst, &lhs);
-            let first = band * rows;
-            let count = rows.min(m - first);
-            let band_lhs = Operand {
-                ptr: lhs.ptr.wrapping_add(first * lhs.row_stride),
-                ..*lhs
-            };
-            // SAFETY: band `band` is rows first..first + count of dst and lhs: inside
-            // both, and disjoint from every other band's rows of dst.
-            unsafe {
-                gemm_call(
-                    dst.0.add(first * n),
-                    (count, n, k),
-                    band_lhs,
-                    rhs,
-                    gemm::Parallelism::None,
-                )
-            };
-        },
-    );
+    (0..bands).into_par_iter().for_each(|band| {
+        // Whole values, not their raw-pointer fields, cross to the tasks.
+        let (dst, lhs) = (&dst, &lhs);
+        let first = band * rows;
+        let count = rows.min(m - first);
+        let band_lhs = Operand {
+            ptr: lhs.ptr.wrapping_add(first * lhs.row_stride),
+            ..*lhs
+        };
+        // SAFETY: band `band` is rows first..first + count of dst and lhs: inside
+        // both, and disjoint from every other band's rows of dst.
+        unsafe {
+            gemm_call(
+                dst.0.add(first * n),
+                (count, n, k),
+                band_lhs,
+                rhs,
+                gemm::Parallelism::None,
+            )
+        };
+    });
 }
 
 /// How many bands of rows a threaded product of m x n is split into (1: not split):
 /// one per thread (`threads` 0 = the current rayon pool's), with at least 16 rows in a
-/// band, and only where gemm sums every element the same way in a band as in the whole:
-/// with more than 64 columns (gemm's path for at most 64 x 64 blocks its k differently).
+/// band, and only with more than 64 columns, where gemm sums every element the same way
+/// in a band as in the whole ([`product`]).
 pub(crate) fn row_bands(m: usize, n: usize, threads: usize) -> usize {
     let threads = if threads == 0 {
         rayon::current_num_threads()
