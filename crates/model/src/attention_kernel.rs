@@ -102,7 +102,9 @@ impl Dims {
 
     /// Every block's head of a [groups * rows, d] view (block = image * heads + head).
     fn heads_of(&self, t: &View<'_>, rows: usize) -> Vec<Operand> {
-        (0..self.blocks()).map(|b| self.head(t, rows, b)).collect()
+        (0..self.blocks())
+            .map(|b| self.head(t, rows, b))
+            .collect()
     }
 
     /// Head `h` of image `g` of a [groups * rows, d] view: a [rows, dk] operand.
@@ -115,50 +117,19 @@ impl Dims {
         }
     }
 
-    /// [blocks, rows, dk] (block = image * heads + head) back to [groups * rows, d],
-    /// output rows side by side (copies only).
+    /// [blocks, rows, dk] (block = image * heads + head) back to [groups * rows, d].
     fn merge_heads(&self, per_head: &[f32], rows: usize) -> Vec<f32> {
-        let (heads, d, dk) = (self.heads, self.d, self.dk);
-        let mut out = vec![0.0f32; self.groups * rows * d];
-        out.par_chunks_mut(COPY_ROWS * d)
-            .enumerate()
-            .for_each(|(chunk, out)| {
-                for (i, out) in out.chunks_exact_mut(d).enumerate() {
-                    let row = chunk * COPY_ROWS + i;
-                    let (g, r) = (row / rows, row % rows);
-                    for h in 0..heads {
-                        let src = &per_head[((g * heads + h) * rows + r) * dk..][..dk];
-                        out[h * dk..][..dk].copy_from_slice(src);
-                    }
-                }
-            });
-        out
-    }
-
-    /// d(K^T) [blocks, dk, nk] back to [groups * nk, d], output rows side by side.
-    fn merge_transposed_heads(&self, per_head: &[f32], nk: usize) -> Vec<f32> {
-        let (heads, d, dk) = (self.heads, self.d, self.dk);
-        let mut out = vec![0.0f32; self.groups * nk * d];
-        out.par_chunks_mut(COPY_ROWS * d)
-            .enumerate()
-            .for_each(|(chunk, out)| {
-                for (i, out) in out.chunks_exact_mut(d).enumerate() {
-                    let row = chunk * COPY_ROWS + i;
-                    let (g, j) = (row / nk, row % nk);
-                    for h in 0..heads {
-                        let block = &per_head[(g * heads + h) * dk * nk..][..dk * nk];
-                        for (c, out) in out[h * dk..][..dk].iter_mut().enumerate() {
-                            *out = block[c * nk + j];
-                        }
-                    }
-                }
-            });
+        let mut out = vec![0.0f32; self.groups * rows * self.d];
+        for block in 0..self.blocks() {
+            let (g, h) = (block / self.heads, block % self.heads);
+            for r in 0..rows {
+                let src = &per_head[(block * rows + r) * self.dk..][..self.dk];
+                out[(g * rows + r) * self.d + h * self.dk..][..self.dk].copy_from_slice(src);
+            }
+        }
         out
     }
 }
-
-/// Output rows per task of the head merges (a fixed split; copies only).
-const COPY_ROWS: usize = 64;
 
 /// Attention of `q` ([groups * nq, d]) over `k`, `v` ([groups * nk, d]) with `heads`
 /// heads, image g's queries attending to image g's keys only: the output
@@ -194,7 +165,14 @@ pub(crate) fn forward(
     let v_ops = dims.heads_of(&vv, nk);
     let per_head = unsafe {
         block_products(dims.blocks(), nq, dk, |b, dst| {
-            product(dst, nq, dk, nk, row_major(&p[b * nq * nk..], nk), v_ops[b])
+            product(
+                dst,
+                nq,
+                dk,
+                nk,
+                row_major(&p[b * nq * nk..], nk),
+                v_ops[b],
+            )
         })
     };
     let output = tensor(
@@ -255,7 +233,14 @@ pub(crate) fn backward(
     // Through the first product (Q' K^T): dQ' = dS K, d(K^T) = Q'^T dS.
     let dq_heads = unsafe {
         block_products(dims.blocks(), nq, dk, |b, dst| {
-            product(dst, nq, dk, nk, row_major(&ds[b * nq * nk..], nk), k_ops[b])
+            product(
+                dst,
+                nq,
+                dk,
+                nk,
+                row_major(&ds[b * nq * nk..], nk),
+                k_ops[b],
+            )
         })
     };
     let dkt = unsafe {
@@ -284,6 +269,16 @@ pub(crate) fn backward(
         })
     };
 
+    // d(K^T) [blocks, dk, nk] back to [groups * nk, d].
+    let mut dk_rows = vec![0.0f32; dims.groups * nk * dims.d];
+    for b in 0..dims.blocks() {
+        let (g, h) = (b / heads, b % heads);
+        for c in 0..dk {
+            for j in 0..nk {
+                dk_rows[(g * nk + j) * dims.d + h * dk + c] = dkt[(b * dk + c) * nk + j];
+            }
+        }
+    }
     let dq = Flex::float_mul_scalar(
         tensor(
             dims.merge_heads(&dq_heads, nq),
@@ -291,10 +286,7 @@ pub(crate) fn backward(
         ),
         dims.scale(),
     );
-    let dk_t = tensor(
-        dims.merge_transposed_heads(&dkt, nk),
-        vec![dims.groups * nk, dims.d],
-    );
+    let dk_t = tensor(dk_rows, vec![dims.groups * nk, dims.d]);
     let dv = tensor(
         dims.merge_heads(&dv_heads, nk),
         vec![dims.groups * nk, dims.d],

@@ -107,25 +107,20 @@ pub(crate) fn backward(
             if y.rows != m || y.cols != n {
                 return None;
             }
-            let mut dz = vec![0.0f32; m * n];
-            dz.par_chunks_mut(ROWS_PER_TASK * n)
-                .enumerate()
-                .for_each(|(chunk, rows)| {
-                    for (i, dz) in rows.chunks_exact_mut(n).enumerate() {
-                        let r = chunk * ROWS_PER_TASK + i;
-                        if y.col_stride == 1 && g.col_stride == 1 {
-                            let yr = &y.data[y.offset + r * y.row_stride..][..n];
-                            let gr = &g.data[g.offset + r * g.row_stride..][..n];
-                            for ((dz, y), g) in dz.iter_mut().zip(yr).zip(gr) {
-                                *dz = if *y > 0.0 { *g } else { 0.0 };
-                            }
-                        } else {
-                            for (c, dz) in dz.iter_mut().enumerate() {
-                                *dz = if y.at(r, c) > 0.0 { g.at(r, c) } else { 0.0 };
-                            }
-                        }
-                    }
-                });
+            let mut dz: Vec<f32> = Vec::with_capacity(m * n);
+            for r in 0..m {
+                if y.col_stride == 1 && g.col_stride == 1 {
+                    let yr = &y.data[y.offset + r * y.row_stride..][..n];
+                    let gr = &g.data[g.offset + r * g.row_stride..][..n];
+                    dz.extend(
+                        yr.iter()
+                            .zip(gr)
+                            .map(|(y, g)| if *y > 0.0 { *g } else { 0.0 }),
+                    );
+                } else {
+                    dz.extend((0..n).map(|c| if y.at(r, c) > 0.0 { g.at(r, c) } else { 0.0 }));
+                }
+            }
             tensor(dz, vec![m, n])
         }
         None => grad.clone(),
