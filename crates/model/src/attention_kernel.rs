@@ -6,15 +6,15 @@
 //! that is then copied into a newly aligned one, page faults included, and the score
 //! tensors are 4 x N x N floats (16 MiB). Here the products write into buffers made once
 //! per operation (`Bytes::from_elems`, no copy), the per-head operands are read in place
-//! through their strides instead of being made contiguous, and the softmax backward is
-//! three passes instead of four operations with their buffers.
+//! through their strides instead of being made contiguous, and the softmax and its
+//! backward pass run row by row in the scores' own buffer (`softmax_rows.rs`).
 //!
-//! The arithmetic is the composed path's operation for operation: the same `gemm` calls
-//! on the same operands (burn-flex's `matmul` is `gemm` with alpha 0 and beta 1), burn-flex's
-//! own softmax, scalar multiply and last-dimension sum, and the same element-wise
-//! formulas, so results equal the composed path's (test `matches_the_composed_path`).
-//! Every task is a fixed block (one image and head), so results never depend on the
-//! number of threads.
+//! The products are the composed path's: the same `gemm` calls on the same operands
+//! (burn-flex's `matmul` is `gemm` with alpha 0 and beta 1), as is the queries' scaling.
+//! The softmax has its own vectorised exponential and sums, so results agree with the
+//! composed path's to a few f32 ulp, not bit for bit (test `matches_the_composed_path`).
+//! Every task is a fixed block (one image and head, or 64 rows of scores), so results
+//! never depend on the number of threads.
 
 use crate::flex_matrix::{Operand, SendPtr, View, row_major, tensor, transposed};
 use crate::softmax_rows::{softmax_backward_rows, softmax_rows};
@@ -102,9 +102,7 @@ impl Dims {
 
     /// Every block's head of a [groups * rows, d] view (block = image * heads + head).
     fn heads_of(&self, t: &View<'_>, rows: usize) -> Vec<Operand> {
-        (0..self.blocks())
-            .map(|b| self.head(t, rows, b))
-            .collect()
+        (0..self.blocks()).map(|b| self.head(t, rows, b)).collect()
     }
 
     /// Head `h` of image `g` of a [groups * rows, d] view: a [rows, dk] operand.
@@ -165,14 +163,7 @@ pub(crate) fn forward(
     let v_ops = dims.heads_of(&vv, nk);
     let per_head = unsafe {
         block_products(dims.blocks(), nq, dk, |b, dst| {
-            product(
-                dst,
-                nq,
-                dk,
-                nk,
-                row_major(&p[b * nq * nk..], nk),
-                v_ops[b],
-            )
+            product(dst, nq, dk, nk, row_major(&p[b * nq * nk..], nk), v_ops[b])
         })
     };
     let output = tensor(
@@ -233,14 +224,7 @@ pub(crate) fn backward(
     // Through the first product (Q' K^T): dQ' = dS K, d(K^T) = Q'^T dS.
     let dq_heads = unsafe {
         block_products(dims.blocks(), nq, dk, |b, dst| {
-            product(
-                dst,
-                nq,
-                dk,
-                nk,
-                row_major(&ds[b * nq * nk..], nk),
-                k_ops[b],
-            )
+            product(dst, nq, dk, nk, row_major(&ds[b * nq * nk..], nk), k_ops[b])
         })
     };
     let dkt = unsafe {
