@@ -151,19 +151,25 @@ pub(crate) fn forward(
     let (qs_ops, k_ops) = (dims.heads_of(&qs, nq), dims.heads_of(&kv, nk));
     // SAFETY (here and below): the operands are heads of views checked by View::of and
     // Dims::of; every product has positive sizes and writes its whole block.
-    let scores = unsafe {
+    // The scores, then their softmax in the same buffer.
+    let mut probs = unsafe {
         block_products(dims.blocks(), nq, nk, |b, dst| {
             product(dst, nq, nk, dk, qs_ops[b], transposed(k_ops[b]))
         })
     };
-    let mut probs = scores;
     softmax_rows(&mut probs, nk);
-    let p = &probs[..];
 
     let v_ops = dims.heads_of(&vv, nk);
     let per_head = unsafe {
         block_products(dims.blocks(), nq, dk, |b, dst| {
-            product(dst, nq, dk, nk, row_major(&p[b * nq * nk..], nk), v_ops[b])
+            product(
+                dst,
+                nq,
+                dk,
+                nk,
+                row_major(&probs[b * nq * nk..], nk),
+                v_ops[b],
+            )
         })
     };
     let output = tensor(

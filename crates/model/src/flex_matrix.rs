@@ -136,8 +136,9 @@ pub(crate) fn parallelism_of(m: usize, n: usize, k: usize) -> gemm::Parallelism 
 /// 2-core Intel Xeon VM); independent bands reached 228. Every element of dst is the
 /// same sum in the same order either way (test `row_bands_equal_gemms_threaded_product`):
 /// gemm works on the transpose of a row-major dst, and once dst has more than 64
-/// columns and a band at least 16 rows, it blocks k by k's length alone and takes
-/// neither its small-matrix nor its single-row paths, for the whole or for a band.
+/// columns and a band more than one row (bands average 16 rows or more), it blocks k by
+/// k's length alone and takes neither its small-matrix nor its single-row paths, for
+/// the whole or for a band.
 ///
 /// SAFETY: dst points to m x n writable elements; lhs reaches m x k and rhs k x n valid
 /// elements through their strides; m, n, k > 0.
@@ -182,8 +183,8 @@ pub(crate) unsafe fn product(
 }
 
 /// How many bands of rows a threaded product of m x n is split into (1: not split):
-/// one per thread (`threads` 0 = the current rayon pool's), with at least 16 rows in a
-/// band, and only with more than 64 columns, where gemm sums every element the same way
+/// one per thread (`threads` 0 = the current rayon pool's), at least 16 rows a band on
+/// average, and only with more than 64 columns, where gemm sums every element the same way
 /// in a band as in the whole ([`product`]).
 pub(crate) fn row_bands(m: usize, n: usize, threads: usize) -> usize {
     let threads = if threads == 0 {
@@ -269,7 +270,7 @@ pub(crate) fn tensor(values: Vec<f32>, shape: Vec<usize>) -> FlexTensor {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::testutil::{bits, pseudo};
+    use crate::testutil::{bits, on_threads, pseudo};
 
     /// Products split into bands of rows equal gemm's own threaded product bit for bit,
     /// for every band count, both operand layouts, and shapes on both sides of gemm's
@@ -287,20 +288,16 @@ mod tests {
             for (lt, rt) in [(false, false), (true, false), (false, true)] {
                 let a = pseudo(m * k, 1);
                 let b = pseudo(k * n, 2);
-                let operands = || {
-                    let lhs = if lt {
-                        transposed(row_major(&a, m))
-                    } else {
-                        row_major(&a, k)
-                    };
-                    let rhs = if rt {
-                        transposed(row_major(&b, k))
-                    } else {
-                        row_major(&b, n)
-                    };
-                    (lhs, rhs)
+                let lhs = if lt {
+                    transposed(row_major(&a, m))
+                } else {
+                    row_major(&a, k)
                 };
-                let (lhs, rhs) = operands();
+                let rhs = if rt {
+                    transposed(row_major(&b, k))
+                } else {
+                    row_major(&b, n)
+                };
                 let mut whole = vec![0.0f32; m * n];
                 unsafe {
                     gemm_call(
@@ -312,13 +309,8 @@ mod tests {
                     )
                 };
                 for threads in [1, 2, 3, 5] {
-                    let pool = rayon::ThreadPoolBuilder::new()
-                        .num_threads(threads)
-                        .build()
-                        .unwrap();
-                    let banded = pool.install(|| {
-                        let (lhs, rhs) = operands();
-                        unsafe { new_product((m, n, k), lhs, rhs, gemm::Parallelism::Rayon(0)) }
+                    let banded = on_threads(threads, || unsafe {
+                        new_product((m, n, k), lhs, rhs, gemm::Parallelism::Rayon(0))
                     });
                     assert_eq!(
                         bits(&banded),

@@ -202,7 +202,7 @@ fn backward_task(grad: &mut [f32], probs: &[f32], row_len: usize) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::testutil::{bits, pseudo};
+    use crate::testutil::{bits, on_threads, pseudo};
 
     /// Ulps between two finite f32 of the same sign.
     fn ulps(a: f32, b: f32) -> u32 {
@@ -286,11 +286,7 @@ mod tests {
         let row_len = 150;
         let x: Vec<f32> = pseudo(200 * row_len, 9).iter().map(|v| 10.0 * v).collect();
         let run = |threads: usize| {
-            let pool = rayon::ThreadPoolBuilder::new()
-                .num_threads(threads)
-                .build()
-                .unwrap();
-            pool.install(|| {
+            on_threads(threads, || {
                 let mut y = x.clone();
                 softmax_rows(&mut y, row_len);
                 let mut g = x.clone();

@@ -344,7 +344,7 @@ fn forward_loss<B: AutodiffBackend<InnerBackend: Pl2MapBackend> + Pl2MapBackend>
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::testutil::{AD, flat, tiny_config, tiny_sample};
+    use crate::testutil::{AD, flat, on_threads, tiny_config, tiny_sample};
 
     fn options(i: usize, progress: f64) -> StepOptions {
         StepOptions {
@@ -424,11 +424,7 @@ mod tests {
         };
         let sample = tiny_sample(&cfg, 256, 16);
         let run = |threads: usize| {
-            let pool = rayon::ThreadPoolBuilder::new()
-                .num_threads(threads)
-                .build()
-                .unwrap();
-            pool.install(|| {
+            on_threads(threads, || {
                 let mut s =
                     TrainState::<AD>::init(&cfg, LossConfig::indoor(), 3, &Default::default())
                         .unwrap();

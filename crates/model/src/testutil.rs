@@ -37,6 +37,16 @@ pub fn flat(p: &crate::HostPrediction) -> Vec<f32> {
         .collect()
 }
 
+/// `f` run on a rayon pool of its own with `threads` threads (results that must not
+/// depend on the thread count are compared across calls).
+pub fn on_threads<R: Send>(threads: usize, f: impl FnOnce() -> R + Send) -> R {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .expect("a rayon pool")
+        .install(f)
+}
+
 /// Bit patterns, so that equality also tells -0.0 from 0.0 and compares NaNs.
 pub fn bits(v: &[f32]) -> Vec<u32> {
     v.iter().map(|x| x.to_bits()).collect()
