@@ -4,11 +4,14 @@
 //! cargo run --release -p model --example adam_bench -- [--iters N] [--dims 128,256]
 //!
 //! Both run in the training threads' pool (`model::denormals::flushing_pool`, all cores).
-//! The gradients are computed before each timed update, outside the timer.
+//! The gradients are computed before each timed update, outside the timer. The last two
+//! columns step with two gradient groups (`model::groups`): their gradients summed first,
+//! then the fused Adam, against the sum made inside the fused pass (what training does).
 
 use model::bench::{cpu_gradients, synthetic_sample};
 use model::burn::module::Module;
-use model::burn::optim::Optimizer;
+use model::burn::optim::{GradientsParams, Optimizer};
+use model::groups::{adam_step_groups, sum_gradients};
 use model::step::{adam_config, new_optimizer};
 use model::{CpuAutodiffBackend as AD, ModelConfig, Pl2Map, Sample};
 use std::time::Instant;
@@ -27,6 +30,32 @@ fn time_updates<O: Optimizer<Pl2Map<AD>, AD>>(
         let grads = cpu_gradients(&net, sample).expect("a valid synthetic sample");
         let start = Instant::now();
         net = optimizer.step(1e-4, net, grads);
+        if i > 0 {
+            times.push(start.elapsed().as_secs_f64());
+        }
+    }
+    times.sort_by(f64::total_cmp);
+    times[times.len() / 2]
+}
+
+/// Median seconds of `iters` two-group updates: `fused` sums inside the Adam pass,
+/// otherwise the sum is made first (both timed).
+fn time_group_updates(net: &Pl2Map<AD>, samples: [&Sample; 2], iters: usize, fused: bool) -> f64 {
+    let mut optimizer = new_optimizer::<AD>();
+    let mut net = net.clone();
+    let mut times = Vec::with_capacity(iters);
+    for i in 0..=iters {
+        let parts: Vec<GradientsParams> = samples
+            .iter()
+            .map(|s| cpu_gradients(&net, s).expect("a valid synthetic sample"))
+            .collect();
+        let start = Instant::now();
+        net = if fused {
+            adam_step_groups(&mut optimizer, 1e-4, net, parts)
+        } else {
+            let grads = sum_gradients(&net, parts);
+            optimizer.step(1e-4, net, grads)
+        };
         if i > 0 {
             times.push(start.elapsed().as_secs_f64());
         }
@@ -55,26 +84,33 @@ fn main() {
         "Adam update, median of {iters} ({} threads)\n",
         pool.current_num_threads()
     );
-    println!("| D | parameters | burn's Adam ms | fused ms | fused / burn |");
-    println!("|---:|---:|---:|---:|---:|");
+    println!(
+        "| D | parameters | burn's Adam ms | fused ms | fused / burn | 2 groups: sum, then fused ms | 2 groups: sum inside ms |"
+    );
+    println!("|---:|---:|---:|---:|---:|---:|---:|");
     for d in dims {
         let cfg = ModelConfig::new(d);
         let net = cfg
             .init::<AD>(1, &Default::default())
             .expect("a valid network");
         let sample = synthetic_sample(&cfg, 1024, 128, 7);
-        let (burn, fused) = pool.install(|| {
+        let other = synthetic_sample(&cfg, 1024, 128, 8);
+        let (burn, fused, sum_first, sum_inside) = pool.install(|| {
             (
                 time_updates(adam_config().init::<AD, Pl2Map<AD>>(), &net, &sample, iters),
                 time_updates(new_optimizer::<AD>(), &net, &sample, iters),
+                time_group_updates(&net, [&sample, &other], iters, false),
+                time_group_updates(&net, [&sample, &other], iters, true),
             )
         });
         println!(
-            "| {d} | {} | {:.2} | {:.2} | {:.2}x |",
+            "| {d} | {} | {:.2} | {:.2} | {:.2}x | {:.2} | {:.2} |",
             net.num_params(),
             burn * 1e3,
             fused * 1e3,
-            fused / burn
+            fused / burn,
+            sum_first * 1e3,
+            sum_inside * 1e3
         );
     }
 }

@@ -65,16 +65,19 @@ fn host_f32<B: Pl2MapBackend, const D: usize>(t: Tensor<B, D>) -> Vec<f32> {
         .unwrap_or_default()
 }
 
-impl<B: Pl2MapBackend> SimpleOptimizer<B> for FusedAdam {
-    type State<const D: usize> = AdamState<B, D>;
-
-    fn step<const D: usize>(
+impl FusedAdam {
+    /// One Adam step of a parameter whose gradient is the sum of `grads`, added in their
+    /// order (one element: that gradient). On host memory the sum is made element by
+    /// element inside the update pass (`adam_groups.rs`: the gradient groups' sum then
+    /// costs no pass of its own); each element is still `g0 + g1 + ...` in order, as a
+    /// sum of the tensors would make it, so the result does not depend on the fusion.
+    pub(crate) fn step_sum<B: Pl2MapBackend, const D: usize>(
         &self,
         lr: LearningRate,
         tensor: Tensor<B, D>,
-        grad: Tensor<B, D>,
-        state: Option<Self::State<D>>,
-    ) -> (Tensor<B, D>, Option<Self::State<D>>) {
+        grads: Vec<Tensor<B, D>>,
+        state: Option<AdamState<B, D>>,
+    ) -> (Tensor<B, D>, Option<AdamState<B, D>>) {
         let f32_state = state.as_ref().is_none_or(|s| {
             let s = &s.momentum;
             s.moment_1.dtype() == DType::F32
@@ -83,17 +86,24 @@ impl<B: Pl2MapBackend> SimpleOptimizer<B> for FusedAdam {
         });
         if !B::HOST_MEMORY
             || tensor.dtype() != DType::F32
-            || grad.dtype() != DType::F32
+            || grads.is_empty()
+            || grads
+                .iter()
+                .any(|g| g.dtype() != DType::F32 || g.shape() != tensor.shape())
             || !f32_state
         {
-            return self.fallback.step(lr, tensor, grad, state);
+            // burn's Adam on the tensors' sum: its own behaviour for what the pass below
+            // does not take (other dtypes and devices, no gradient, mismatched shapes).
+            let grad = grads.into_iter().reduce(|total, g| total + g);
+            return match grad {
+                Some(grad) => self.fallback.step(lr, tensor, grad, state),
+                None => (tensor, state),
+            };
         }
         let shape = tensor.shape();
         let device = tensor.device();
         let mut p = host_f32(tensor);
-        let g = host_f32(grad);
-        let (b1, b2) = (self.beta_1, self.beta_2);
-        let (f1, f2) = (1.0 - b1, 1.0 - b2);
+        let grads: Vec<Vec<f32>> = grads.into_iter().map(host_f32).collect();
         let (time, mut m, mut v, first) = match state {
             Some(s) => {
                 let s = s.momentum;
@@ -104,42 +114,31 @@ impl<B: Pl2MapBackend> SimpleOptimizer<B> for FusedAdam {
                     false,
                 )
             }
-            None => (1, vec![0.0; g.len()], vec![0.0; g.len()], true),
+            None => (1, vec![0.0; p.len()], vec![0.0; p.len()], true),
         };
-        // The constants exactly as burn computes them (f32).
-        let t = time as i32;
-        let bias_correction2_sqrt = (1.0 - b2.powi(t)).sqrt();
-        let combined_factor = bias_correction2_sqrt / (1.0 - b1.powi(t));
-        let eps = self.epsilon * bias_correction2_sqrt;
-        let lr = lr as f32;
+        let update = Update::new(self, time, lr as f32, first);
         p.par_chunks_mut(CHUNK)
-            .zip(g.par_chunks(CHUNK))
             .zip(m.par_chunks_mut(CHUNK))
             .zip(v.par_chunks_mut(CHUNK))
-            .for_each(|(((p, g), m), v)| {
-                // Zipped slices (no bounds checks) and the first-step branch outside the
-                // loop: the compiler then vectorises it. Lane-wise sqrt and division are
-                // IEEE-exact, so the results are the scalar loop's bit for bit.
-                let update = |p: &mut f32, mi: f32, vi: f32| {
-                    let delta = (mi * combined_factor) / (vi.sqrt() + eps);
-                    *p -= delta * lr;
-                };
-                let it = p.iter_mut().zip(g).zip(m.iter_mut().zip(v.iter_mut()));
-                if first {
-                    // The first step starts the moments from the gradient (not 0 * beta +
-                    // ...: that would turn -0 into +0).
-                    for ((p, &gi), (m, v)) in it {
-                        let (mi, vi) = (gi * f1, (gi * gi) * f2);
-                        *m = mi;
-                        *v = vi;
-                        update(p, mi, vi);
-                    }
-                } else {
-                    for ((p, &gi), (m, v)) in it {
-                        let (mi, vi) = (*m * b1 + gi * f1, *v * b2 + (gi * gi) * f2);
-                        *m = mi;
-                        *v = vi;
-                        update(p, mi, vi);
+            .enumerate()
+            .for_each(|(c, ((p, m), v))| {
+                let range = c * CHUNK..c * CHUNK + p.len();
+                match grads.as_slice() {
+                    [g] => update.run(p, g[range].iter().copied(), m, v),
+                    [g0, g1] => update.run(
+                        p,
+                        g0[range.clone()].iter().zip(&g1[range]).map(|(a, b)| a + b),
+                        m,
+                        v,
+                    ),
+                    more => {
+                        let mut sum = more[0][range.clone()].to_vec();
+                        for g in &more[1..] {
+                            for (s, x) in sum.iter_mut().zip(&g[range.clone()]) {
+                                *s += x;
+                            }
+                        }
+                        update.run(p, sum.into_iter(), m, v)
                     }
                 }
             });
@@ -152,6 +151,90 @@ impl<B: Pl2MapBackend> SimpleOptimizer<B> for FusedAdam {
             max_moment_2: None,
         });
         (tensor(p), Some(state))
+    }
+}
+
+/// One step's constants, exactly as burn computes them (f32).
+struct Update {
+    b1: f32,
+    b2: f32,
+    f1: f32,
+    f2: f32,
+    combined_factor: f32,
+    eps: f32,
+    lr: f32,
+    first: bool,
+}
+
+impl Update {
+    fn new(adam: &FusedAdam, time: usize, lr: f32, first: bool) -> Self {
+        let (b1, b2) = (adam.beta_1, adam.beta_2);
+        let t = time as i32;
+        let bias_correction2_sqrt = (1.0 - b2.powi(t)).sqrt();
+        Update {
+            b1,
+            b2,
+            f1: 1.0 - b1,
+            f2: 1.0 - b2,
+            combined_factor: bias_correction2_sqrt / (1.0 - b1.powi(t)),
+            eps: adam.epsilon * bias_correction2_sqrt,
+            lr,
+            first,
+        }
+    }
+
+    /// The update of one chunk of a parameter, its gradient's values in order. Zipped
+    /// slices (no bounds checks) and the first-step branch outside the loop: the compiler
+    /// then vectorises it. Lane-wise sqrt and division are IEEE-exact, so the results are
+    /// the scalar loop's bit for bit.
+    #[inline]
+    fn run(&self, p: &mut [f32], g: impl Iterator<Item = f32>, m: &mut [f32], v: &mut [f32]) {
+        let Update {
+            b1,
+            b2,
+            f1,
+            f2,
+            combined_factor,
+            eps,
+            lr,
+            first,
+        } = *self;
+        let update = |p: &mut f32, mi: f32, vi: f32| {
+            let delta = (mi * combined_factor) / (vi.sqrt() + eps);
+            *p -= delta * lr;
+        };
+        let it = p.iter_mut().zip(g).zip(m.iter_mut().zip(v.iter_mut()));
+        if first {
+            // The first step starts the moments from the gradient (not 0 * beta + ...:
+            // that would turn -0 into +0).
+            for ((p, gi), (m, v)) in it {
+                let (mi, vi) = (gi * f1, (gi * gi) * f2);
+                *m = mi;
+                *v = vi;
+                update(p, mi, vi);
+            }
+        } else {
+            for ((p, gi), (m, v)) in it {
+                let (mi, vi) = (*m * b1 + gi * f1, *v * b2 + (gi * gi) * f2);
+                *m = mi;
+                *v = vi;
+                update(p, mi, vi);
+            }
+        }
+    }
+}
+
+impl<B: Pl2MapBackend> SimpleOptimizer<B> for FusedAdam {
+    type State<const D: usize> = AdamState<B, D>;
+
+    fn step<const D: usize>(
+        &self,
+        lr: LearningRate,
+        tensor: Tensor<B, D>,
+        grad: Tensor<B, D>,
+        state: Option<Self::State<D>>,
+    ) -> (Tensor<B, D>, Option<Self::State<D>>) {
+        self.step_sum(lr, tensor, vec![grad], state)
     }
 
     fn to_device<const D: usize>(state: Self::State<D>, device: &B::Device) -> Self::State<D> {

@@ -284,9 +284,16 @@ impl<B: AutodiffBackend<InnerBackend: Pl2MapBackend> + Pl2MapBackend> TrainState
                 updated: false,
             });
         }
-        self.adam_step(options.learning_rate, |model| {
-            groups::sum_gradients::<B, _>(model, parts)
-        });
+        let model = self
+            .model
+            .take()
+            .expect("TrainState holds a model between steps");
+        self.model = Some(groups::adam_step_groups(
+            &mut self.optimizer,
+            options.learning_rate,
+            model,
+            parts,
+        ));
         Ok(StepReport {
             losses,
             updated: true,
