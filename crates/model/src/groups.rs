@@ -19,7 +19,7 @@ use crate::error::ModelError;
 use burn::module::{AutodiffModule, Module, ModuleMapper, ModuleVisitor, Param};
 use burn::optim::adaptor::OptimizerAdaptor;
 use burn::optim::record::AdaptorRecord;
-use burn::optim::{GradientsParams, Optimizer};
+use burn::optim::{GradientsParams, Optimizer, SimpleOptimizer};
 use burn::tensor::Tensor;
 use burn::tensor::backend::AutodiffBackend;
 use std::ops::Range;
@@ -212,7 +212,12 @@ where
             return Param::from_mapped_value(id, tensor, mapper);
         }
         let require_grad = tensor.is_require_grad();
-        let state = self.records.remove(&id).map(|r| r.into_state::<D>());
+        // As burn's adaptor: the state follows the gradient's device (a run resumed on
+        // another device than its checkpoint's).
+        let device = grads[0].device();
+        let state = self.records.remove(&id).map(|r| {
+            <FusedAdam as SimpleOptimizer<B::InnerBackend>>::to_device(r.into_state::<D>(), &device)
+        });
         let (inner, state) = self
             .adam
             .step_sum(self.learning_rate, tensor.inner(), grads, state);
