@@ -68,9 +68,10 @@ fn host_f32<B: Pl2MapBackend, const D: usize>(t: Tensor<B, D>) -> Vec<f32> {
 impl FusedAdam {
     /// One Adam step of a parameter whose gradient is the sum of `grads`, added in their
     /// order (one element: that gradient). On host memory the sum is made element by
-    /// element inside the update pass (`adam_groups.rs`: the gradient groups' sum then
-    /// costs no pass of its own); each element is still `g0 + g1 + ...` in order, as a
-    /// sum of the tensors would make it, so the result does not depend on the fusion.
+    /// element inside the update pass, so the gradient groups' sum
+    /// ([`crate::groups::adam_step_groups`]) costs no pass of its own; each element is
+    /// still `g0 + g1 + ...` in order, as a sum of the tensors would make it, so the
+    /// result does not depend on the fusion.
     pub(crate) fn step_sum<B: Pl2MapBackend, const D: usize>(
         &self,
         lr: LearningRate,
