@@ -248,24 +248,8 @@ mod tests {
     use crate::Pl2Map;
     use crate::bench::cpu_gradients;
     use crate::step::{adam_config, new_optimizer};
-    use crate::testutil::{AD, tiny_config, tiny_sample};
-    use burn::module::{Module, ModuleVisitor, Param};
+    use crate::testutil::{AD, parameter_bits, tiny_config, tiny_sample};
     use burn::optim::Optimizer;
-    use burn::tensor::Tensor;
-    use burn::tensor::backend::Backend;
-
-    fn parameters<B: Backend>(net: &Pl2Map<B>) -> Vec<u32> {
-        struct Collect(Vec<u32>);
-        impl<B: Backend> ModuleVisitor<B> for Collect {
-            fn visit_float<const D: usize>(&mut self, param: &Param<Tensor<B, D>>) {
-                let data = param.val().into_data().convert::<f32>();
-                self.0.extend(data.iter::<f32>().map(f32::to_bits));
-            }
-        }
-        let mut c = Collect(Vec::new());
-        net.visit(&mut c);
-        c.0
-    }
 
     /// Five steps of the fused Adam and of burn's Adam, on the gradients of different
     /// samples, give the same parameters bit for bit after every step (and so the same
@@ -284,14 +268,14 @@ mod tests {
             let gb = cpu_gradients(&b, &sample).unwrap();
             a = burns.step(lr, a, ga);
             b = fused.step(lr, b, gb);
-            let (pa, pb) = (parameters(&a), parameters(&b));
+            let (pa, pb) = (parameter_bits(&a), parameter_bits(&b));
             assert_eq!(pa.len(), pb.len());
             let differing = pa.iter().zip(&pb).filter(|(x, y)| x != y).count();
             assert_eq!(differing, 0, "step {i}: {differing} of {} differ", pa.len());
         }
         assert_ne!(
-            parameters(&a),
-            parameters(&cfg.init::<AD>(3, &Default::default()).unwrap())
+            parameter_bits(&a),
+            parameter_bits(&cfg.init::<AD>(3, &Default::default()).unwrap())
         );
     }
 }

@@ -238,20 +238,7 @@ mod tests {
     use crate::Pl2Map;
     use crate::bench::cpu_gradients;
     use crate::step::{adam_config, new_optimizer};
-    use crate::testutil::{AD, tiny_config, tiny_sample};
-
-    fn parameters<B: burn::tensor::backend::Backend>(net: &Pl2Map<B>) -> Vec<u32> {
-        struct Collect(Vec<u32>);
-        impl<B: burn::tensor::backend::Backend> ModuleVisitor<B> for Collect {
-            fn visit_float<const D: usize>(&mut self, param: &Param<Tensor<B, D>>) {
-                let data = param.val().into_data().convert::<f32>();
-                self.0.extend(data.iter::<f32>().map(f32::to_bits));
-            }
-        }
-        let mut c = Collect(Vec::new());
-        net.visit(&mut c);
-        c.0
-    }
+    use crate::testutil::{AD, parameter_bits, tiny_config, tiny_sample};
 
     /// Takes the first parameter's gradient out of `part` (a gradient one group lacks).
     fn drop_first_gradient(net: &Pl2Map<AD>, part: &mut GradientsParams) {
@@ -295,7 +282,7 @@ mod tests {
                 let (pa, pb) = (parts(&a), parts(&b));
                 a = burns.step(lr, a.clone(), sum_gradients(&a, pa));
                 b = adam_step_groups(&mut fused, lr, b, pb);
-                let (wa, wb) = (parameters(&a), parameters(&b));
+                let (wa, wb) = (parameter_bits(&a), parameter_bits(&b));
                 let differing = wa.iter().zip(&wb).filter(|(x, y)| x != y).count();
                 assert_eq!(
                     differing, 0,

@@ -180,8 +180,10 @@ impl<B: AutodiffBackend<InnerBackend: Pl2MapBackend> + Pl2MapBackend> TrainState
         } else {
             total
         };
-        self.adam_step(options.learning_rate, |model| {
-            GradientsParams::from_grads(total.backward(), model)
+        let lr = options.learning_rate;
+        self.adam_step(|optimizer, model| {
+            let grads = GradientsParams::from_grads(total.backward(), &model);
+            optimizer.step(lr, model, grads)
         });
         Ok(StepReport {
             losses,
@@ -213,15 +215,14 @@ impl<B: AutodiffBackend<InnerBackend: Pl2MapBackend> + Pl2MapBackend> TrainState
         Ok(())
     }
 
-    /// One Adam step with the gradients `grads` gives for the network (which moves
-    /// through the optimiser: burn's optimisers take and return it by value).
-    fn adam_step(&mut self, learning_rate: f64, grads: impl FnOnce(&Pl2Map<B>) -> GradientsParams) {
+    /// One Adam step by `step`, which gets the optimiser and the network (the network
+    /// moves through the optimiser: burn's optimisers take and return it by value).
+    fn adam_step(&mut self, step: impl FnOnce(&mut Pl2MapOptimizer<B>, Pl2Map<B>) -> Pl2Map<B>) {
         let model = self
             .model
             .take()
             .expect("TrainState holds a model between steps");
-        let grads = grads(&model);
-        self.model = Some(self.optimizer.step(learning_rate, model, grads));
+        self.model = Some(step(&mut self.optimizer, model));
     }
 
     fn step_grouped(
@@ -284,16 +285,8 @@ impl<B: AutodiffBackend<InnerBackend: Pl2MapBackend> + Pl2MapBackend> TrainState
                 updated: false,
             });
         }
-        let model = self
-            .model
-            .take()
-            .expect("TrainState holds a model between steps");
-        self.model = Some(groups::adam_step_groups(
-            &mut self.optimizer,
-            options.learning_rate,
-            model,
-            parts,
-        ));
+        let lr = options.learning_rate;
+        self.adam_step(|optimizer, model| groups::adam_step_groups(optimizer, lr, model, parts));
         Ok(StepReport {
             losses,
             updated: true,

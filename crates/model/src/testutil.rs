@@ -47,6 +47,22 @@ pub fn on_threads<R: Send>(threads: usize, f: impl FnOnce() -> R + Send) -> R {
         .install(f)
 }
 
+/// Every parameter of `net` as bit patterns, in visiting order (weights compared bit
+/// for bit).
+pub fn parameter_bits<Bk: Backend>(net: &crate::Pl2Map<Bk>) -> Vec<u32> {
+    use burn::module::{Module, ModuleVisitor, Param};
+    struct Collect(Vec<u32>);
+    impl<Bk: Backend> ModuleVisitor<Bk> for Collect {
+        fn visit_float<const D: usize>(&mut self, param: &Param<Tensor<Bk, D>>) {
+            let data = param.val().into_data().convert::<f32>();
+            self.0.extend(data.iter::<f32>().map(f32::to_bits));
+        }
+    }
+    let mut c = Collect(Vec::new());
+    net.visit(&mut c);
+    c.0
+}
+
 /// Bit patterns, so that equality also tells -0.0 from 0.0 and compares NaNs.
 pub fn bits(v: &[f32]) -> Vec<u32> {
     v.iter().map(|x| x.to_bits()).collect()
