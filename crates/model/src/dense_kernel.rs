@@ -17,6 +17,7 @@
 //! threads (element-wise passes; gemm's sums do not depend on its threads).
 
 use crate::flex_matrix::{View, new_product, parallelism_of, tensor, transposed};
+use crate::simd_dispatch::dispatch;
 use burn::backend::Flex;
 use burn::tensor::Shape;
 use burn::tensor::ops::FloatTensorOps;
@@ -72,15 +73,8 @@ pub(crate) fn forward(
     // SAFETY: both views were checked by View::of, their shapes fit and are positive.
     let mut out =
         unsafe { new_product((m, n, k), x.operand(), w.operand(), parallelism_of(m, n, k)) };
-    out.par_chunks_mut(ROWS_PER_TASK * n).for_each(|rows| {
-        for row in rows.chunks_exact_mut(n) {
-            for (v, b) in row.iter_mut().zip(&bias) {
-                let z = *v + b;
-                // burn-flex's ReLU: f32::max, which also takes NaN to 0.
-                *v = if relu { z.max(0.0) } else { z };
-            }
-        }
-    });
+    out.par_chunks_mut(ROWS_PER_TASK * n)
+        .for_each(|rows| add_bias(rows, &bias, relu));
     Some(tensor(out, vec![m, n]))
 }
 
@@ -112,11 +106,7 @@ pub(crate) fn backward(
                 if y.col_stride == 1 && g.col_stride == 1 {
                     let yr = &y.data[y.offset + r * y.row_stride..][..n];
                     let gr = &g.data[g.offset + r * g.row_stride..][..n];
-                    dz.extend(
-                        yr.iter()
-                            .zip(gr)
-                            .map(|(y, g)| if *y > 0.0 { *g } else { 0.0 }),
-                    );
+                    relu_mask(&mut dz, yr, gr);
                 } else {
                     dz.extend((0..n).map(|c| if y.at(r, c) > 0.0 { g.at(r, c) } else { 0.0 }));
                 }
@@ -152,4 +142,75 @@ pub(crate) fn backward(
     // db: burn's own first-dimension sum (its summation order depends on the layout).
     let db = Flex::float_reshape(Flex::float_sum_dim(dz_tensor, 0), Shape::new([n]));
     Some((dx, tensor(dw, vec![k, n]), db))
+}
+
+/// Adds the bias to every row of `rows` (rows of `bias.len()`), then the ReLU when
+/// `relu`, with the widest vectors this CPU has (`simd_dispatch.rs`).
+fn add_bias(rows: &mut [f32], bias: &[f32], relu: bool) {
+    dispatch!(
+        baseline,
+        (rows: &mut [f32], bias: &[f32], relu: bool),
+        add_bias_rows(rows, bias, relu)
+    )
+}
+
+#[inline(always)]
+fn add_bias_rows(rows: &mut [f32], bias: &[f32], relu: bool) {
+    for row in rows.chunks_exact_mut(bias.len()) {
+        for (v, b) in row.iter_mut().zip(bias) {
+            let z = *v + b;
+            // burn-flex's ReLU: f32::max, which also takes NaN to 0.
+            *v = if relu { z.max(0.0) } else { z };
+        }
+    }
+}
+
+/// Appends one row of the gradient through the ReLU: `g` where the output `y` is
+/// positive, 0 elsewhere (burn-flex's `relu_backward`), as [`add_bias`] dispatches.
+fn relu_mask(dz: &mut Vec<f32>, y: &[f32], g: &[f32]) {
+    dispatch!(
+        baseline,
+        (dz: &mut Vec<f32>, y: &[f32], g: &[f32]),
+        relu_mask_row(dz, y, g)
+    )
+}
+
+#[inline(always)]
+fn relu_mask_row(dz: &mut Vec<f32>, y: &[f32], g: &[f32]) {
+    dz.extend(
+        y.iter()
+            .zip(g)
+            .map(|(y, g)| if *y > 0.0 { *g } else { 0.0 }),
+    );
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::testutil::{bits, pseudo};
+
+    /// The element-wise passes give the same bits on this CPU's widest vectors as on
+    /// the baseline target (the functions called directly, not dispatched), NaN,
+    /// infinities, signed zeros and a row length that leaves a remainder included.
+    #[test]
+    fn every_code_path_gives_the_same_bits() {
+        let n = 37;
+        let mut x: Vec<f32> = pseudo(9 * n, 3).iter().map(|v| 4.0 * v).collect();
+        x[5] = f32::NAN;
+        x[6] = f32::INFINITY;
+        x[7] = -0.0;
+        x[8] = f32::NEG_INFINITY;
+        let bias = pseudo(n, 4);
+        for relu in [true, false] {
+            let (mut dispatched, mut baseline) = (x.clone(), x.clone());
+            add_bias(&mut dispatched, &bias, relu);
+            add_bias_rows(&mut baseline, &bias, relu);
+            assert_eq!(bits(&dispatched), bits(&baseline), "bias, relu {relu}");
+        }
+        let g = pseudo(x.len(), 5);
+        let (mut dispatched, mut baseline) = (Vec::new(), Vec::new());
+        relu_mask(&mut dispatched, &x, &g);
+        relu_mask_row(&mut baseline, &x, &g);
+        assert_eq!(bits(&dispatched), bits(&baseline), "relu mask");
+    }
 }

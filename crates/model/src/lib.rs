@@ -46,6 +46,7 @@ pub mod loss;
 pub mod network;
 pub mod permute;
 pub mod sample;
+mod simd_dispatch;
 mod softmax_rows;
 pub mod step;
 #[cfg(test)]

@@ -14,6 +14,7 @@
 //! fused operation (`mul_add`) is exact on every target. The same code is compiled once
 //! for AVX-512, once for AVX2 + FMA and once for the baseline, chosen at run time.
 
+use crate::simd_dispatch::dispatch;
 use rayon::prelude::*;
 
 /// Lanes of every sum: one AVX-512 register, two AVX2 registers, four of SSE or NEON,
@@ -129,32 +130,6 @@ fn backward_row(grad: &mut [f32], probs: &[f32]) {
     for (g, &p) in grad.iter_mut().zip(probs) {
         *g = (*g - dot) * p;
     }
-}
-
-/// Compiles `$body` (a closure call) for AVX-512, for AVX2 + FMA and for the baseline
-/// target, and runs the best one this CPU has.
-macro_rules! dispatch {
-    ($name:ident, ($($arg:ident: $ty:ty),*), $body:expr) => {{
-        #[cfg(target_arch = "x86_64")]
-        {
-            #[target_feature(enable = "avx512f,avx2,fma")]
-            unsafe fn avx512($($arg: $ty),*) { $body }
-            #[target_feature(enable = "avx2,fma")]
-            unsafe fn avx2($($arg: $ty),*) { $body }
-            if std::arch::is_x86_feature_detected!("avx512f") {
-                // SAFETY: the CPU has the features the function was compiled for.
-                return unsafe { avx512($($arg),*) };
-            }
-            if std::arch::is_x86_feature_detected!("avx2")
-                && std::arch::is_x86_feature_detected!("fma")
-            {
-                // SAFETY: as above.
-                return unsafe { avx2($($arg),*) };
-            }
-        }
-        fn $name($($arg: $ty),*) { $body }
-        $name($($arg),*)
-    }};
 }
 
 /// Softmax of every row of `data` (rows of `row_len`), in place.
