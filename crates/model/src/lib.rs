@@ -51,6 +51,7 @@ mod softmax_rows;
 pub mod step;
 #[cfg(test)]
 mod testutil;
+mod transpose;
 
 pub use backend::Pl2MapBackend;
 pub use burn;

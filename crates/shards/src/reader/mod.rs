@@ -234,7 +234,10 @@ impl ShardReader {
                 ),
             ));
         }
-        let frame = from_proto(labels, image.data.to_vec(), format)
+        // The decoded image's buffer becomes the record's, not a second copy (a `Bytes`
+        // that owns its whole `Vec` gives it back as is): the trainer's reader thread
+        // copied every frame's image twice, about 2 % of a training run's CPU time.
+        let frame = from_proto(labels, Vec::from(image.data), format)
             .map_err(|r| decode_err(TOPIC_LABELS, loc.labels.chunk, r))?;
         frame
             .validate()
