@@ -10,7 +10,8 @@
 //!
 //! The arithmetic is the composed path's: the same `gemm` calls on the same operands
 //! (burn's `linear` is `x.matmul(W)`, its backward `grad.matmul(W^T)` and
-//! `x^T.matmul(grad)`), the bias added to the finished product, burn-flex's ReLU
+//! `x^T.matmul(grad)`; the first, for a layer with few rows, as the product's transpose,
+//! whose elements are the same sums: [`input_gradient`]), the bias added to the finished product, burn-flex's ReLU
 //! (`max(z, 0)`, and backward the gradient where the output is positive, 0 elsewhere) and
 //! burn-flex's own first-dimension sum for the bias. The results equal the composed
 //! path's bit for bit (test `matches_the_composed_path`) and never depend on the number of
