@@ -71,6 +71,8 @@ pub struct TrainState<B: AutodiffBackend<InnerBackend: Pl2MapBackend> + Pl2MapBa
     /// Gradient groups per step (`groups.rs`), and where they run.
     batch_groups: usize,
     group_pools: Option<GroupPools>,
+    /// Called once a grouped step's gradients are made, before its update.
+    on_gradients: Option<Box<dyn Fn() + Send + Sync>>,
 }
 
 impl<B: AutodiffBackend<InnerBackend: Pl2MapBackend> + Pl2MapBackend> TrainState<B> {
@@ -82,6 +84,7 @@ impl<B: AutodiffBackend<InnerBackend: Pl2MapBackend> + Pl2MapBackend> TrainState
             loss,
             batch_groups: 1,
             group_pools: None,
+            on_gradients: None,
         })
     }
 
@@ -119,6 +122,7 @@ impl<B: AutodiffBackend<InnerBackend: Pl2MapBackend> + Pl2MapBackend> TrainState
             loss,
             batch_groups: 1,
             group_pools: None,
+            on_gradients: None,
         })
     }
 
@@ -215,6 +219,14 @@ impl<B: AutodiffBackend<InnerBackend: Pl2MapBackend> + Pl2MapBackend> TrainState
         Ok(())
     }
 
+    /// `f` is called in every grouped step once the groups' gradients are made, before
+    /// the Adam update (the trainer lets its sample stream refill then: the update is
+    /// bound by memory, the passes before it by both cores). Not called by a stacked
+    /// step or one that made no gradients.
+    pub fn set_on_gradients(&mut self, f: Option<Box<dyn Fn() + Send + Sync>>) {
+        self.on_gradients = f;
+    }
+
     /// One Adam step by `step`, which gets the optimiser and the network (the network
     /// moves through the optimiser: burn's optimisers take and return it by value).
     fn adam_step(&mut self, step: impl FnOnce(&mut Pl2MapOptimizer<B>, Pl2Map<B>) -> Pl2Map<B>) {
@@ -286,6 +298,9 @@ impl<B: AutodiffBackend<InnerBackend: Pl2MapBackend> + Pl2MapBackend> TrainState
             });
         }
         let lr = options.learning_rate;
+        if let Some(f) = &self.on_gradients {
+            f();
+        }
         self.adam_step(|optimizer, model| groups::adam_step_groups(optimizer, lr, model, parts));
         Ok(StepReport {
             losses,
@@ -345,6 +360,7 @@ fn forward_loss<B: AutodiffBackend<InnerBackend: Pl2MapBackend> + Pl2MapBackend>
 mod tests {
     use super::*;
     use crate::testutil::{AD, flat, on_threads, tiny_config, tiny_sample};
+    use std::sync::Arc;
 
     fn options(i: usize, progress: f64) -> StepOptions {
         StepOptions {
@@ -522,11 +538,19 @@ mod tests {
         let mut s =
             TrainState::<AD>::init(cfg, LossConfig::indoor(), 4, &Default::default()).unwrap();
         s.set_batch_groups(groups, threads).unwrap();
+        // The hook before the update runs once a grouped step, never for a stacked one.
+        let calls = Arc::new(std::sync::atomic::AtomicUsize::new(0));
+        let counter = Arc::clone(&calls);
+        s.set_on_gradients(Some(Box::new(move || {
+            counter.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+        })));
         let mut losses = Vec::new();
         for i in 0..3 {
             let r = s.step_batch(batch, &options(i, 0.9)).unwrap();
             assert!(r.updated);
             losses.push(r.losses.total);
+            let expected = if groups > 1 { i + 1 } else { 0 };
+            assert_eq!(calls.load(std::sync::atomic::Ordering::SeqCst), expected);
         }
         let p = s
             .inference_model()

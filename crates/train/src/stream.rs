@@ -21,7 +21,7 @@ use shards::{FrameRecord, ReaderOptions, ShardReader};
 use std::collections::BTreeMap;
 use std::panic::AssertUnwindSafe;
 use std::path::PathBuf;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::mpsc::{Receiver, SyncSender, channel, sync_channel};
 use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
@@ -100,7 +100,7 @@ type Item<T> = Result<(StreamPosition, T), TrainError>;
 /// frames are read and not yet consumed, however slow one preparation is.
 pub struct FrameStream<T: Send + 'static> {
     results: Option<Receiver<(u64, Item<T>)>>,
-    credits: Option<SyncSender<()>>,
+    places: Arc<Places>,
     /// Results that came before the one the consumer waits for.
     pending: BTreeMap<u64, Item<T>>,
     next: u64,
@@ -233,7 +233,11 @@ impl<T: Send + 'static> FrameStream<T> {
         threads.push(handle);
         Ok(FrameStream {
             results: Some(result_rx),
-            credits: Some(credit_tx),
+            places: Arc::new(Places {
+                credits: Mutex::new(Some(credit_tx)),
+                hold: AtomicBool::new(false),
+                held: AtomicUsize::new(0),
+            }),
             pending: BTreeMap::new(),
             next: start,
             stop,
@@ -248,6 +252,22 @@ impl<T: Send + 'static> FrameStream<T> {
 
     /// The next prepared frame, in stream order. An error (a frame that does not read
     /// or decode, a failed preparation) ends the stream.
+    /// From now on the places of the items taken are given back to the reader only when
+    /// the returned handle's [`PlaceRelease::release`] is called, not as each item is
+    /// taken.
+    ///
+    /// Why: a CPU training step takes its 16 samples at once, and the reader and
+    /// preparation threads then woke for about 5 ms of work while the two gradient
+    /// groups wanted both cores; the group they held back kept the other waiting at the
+    /// step's barrier. The trainer releases the places when the step's gradients are
+    /// made, so that work overlaps the memory-bound Adam update instead: the main job's
+    /// step took 0.0345-0.0351 s instead of 0.0369-0.0375 s (docs/performance.md, "The
+    /// sample stream's places"). The items are the same either way.
+    pub fn hold_places(&mut self) -> PlaceRelease {
+        self.places.hold.store(true, Ordering::SeqCst);
+        PlaceRelease(Arc::clone(&self.places))
+    }
+
     pub fn next_item(&mut self) -> Result<(StreamPosition, T), TrainError> {
         let ended = || TrainError::Stream("the stream has ended".into());
         let item = loop {
@@ -268,11 +288,7 @@ impl<T: Send + 'static> FrameStream<T> {
         match item {
             Ok(item) => {
                 self.next += 1;
-                if let Some(credits) = &self.credits {
-                    // The reader may be gone (it stopped at an error further on): then
-                    // nothing waits for the credit.
-                    let _ = credits.try_send(());
-                }
+                self.places.taken();
                 Ok(item)
             }
             Err(e) => {
@@ -285,12 +301,62 @@ impl<T: Send + 'static> FrameStream<T> {
     /// Stops the threads: the reader at its next credit, the workers at their next job.
     fn shut_down(&mut self) {
         self.stop.store(true, Ordering::Relaxed);
-        self.credits = None;
+        // The reader's credit channel closes even while a [`PlaceRelease`] lives on.
+        self.places.close();
         self.results = None;
         self.pending.clear();
         for h in self.threads.drain(..) {
             let _ = h.join();
         }
+    }
+}
+
+/// The reader's credits: one per place of the stream ([`FrameStream::hold_places`]).
+struct Places {
+    /// None once the stream shut down (the reader then stops at its next credit).
+    credits: Mutex<Option<SyncSender<()>>>,
+    hold: AtomicBool,
+    held: AtomicUsize,
+}
+
+impl Places {
+    /// An item was handed out: its place goes back now, or is held.
+    fn taken(&self) {
+        if self.hold.load(Ordering::SeqCst) {
+            self.held.fetch_add(1, Ordering::SeqCst);
+        } else {
+            self.give(1);
+        }
+    }
+
+    fn give(&self, n: usize) {
+        if let Ok(credits) = self.credits.lock()
+            && let Some(tx) = credits.as_ref()
+        {
+            for _ in 0..n {
+                // The reader may be gone (it stopped at an error further on): then
+                // nothing waits for the credit.
+                let _ = tx.try_send(());
+            }
+        }
+    }
+
+    fn close(&self) {
+        if let Ok(mut credits) = self.credits.lock() {
+            *credits = None;
+        }
+    }
+}
+
+/// Gives the held places of a [`FrameStream`] back to its reader (any thread; a no-op
+/// once the stream is gone).
+#[derive(Clone)]
+pub struct PlaceRelease(Arc<Places>);
+
+impl PlaceRelease {
+    pub fn release(&self) {
+        let n = self.0.held.swap(0, Ordering::SeqCst);
+        self.0.give(n);
     }
 }
 
@@ -444,6 +510,42 @@ mod tests {
         assert_eq!(items(2, 0), one);
         assert_eq!(items(4, 0), one);
         assert_eq!(items(3, 7), items(1, 7));
+    }
+
+    /// With its places held, the reader makes no more than the stream's places until
+    /// they are released; the items are those of a stream that gives each place back at
+    /// once; and a release handle that outlives its stream neither keeps the reader
+    /// alive (dropping the stream returns) nor fails afterwards.
+    #[test]
+    fn held_places_bound_the_reader_until_released() {
+        use std::sync::atomic::AtomicUsize;
+        let dir = tempfile::tempdir().unwrap();
+        let paths = write_synthetic_shards(dir.path(), 2, 4, 0.0);
+        let plain: Vec<u64> = {
+            let mut s = FrameStream::start(&paths, config(1), 0, |_, f| Ok(f.frame_id)).unwrap();
+            (0..6).map(|_| s.next_item().unwrap().1).collect()
+        };
+        let made = Arc::new(AtomicUsize::new(0));
+        let counter = Arc::clone(&made);
+        let mut s = FrameStream::start(&paths, config(1), 0, move |_, f| {
+            counter.fetch_add(1, Ordering::SeqCst);
+            Ok(f.frame_id)
+        })
+        .unwrap();
+        let places = s.hold_places();
+        // config(1): 2 prefetched + 1 in the worker's hands.
+        let mut got: Vec<u64> = (0..3).map(|_| s.next_item().unwrap().1).collect();
+        std::thread::sleep(std::time::Duration::from_millis(100));
+        assert_eq!(
+            made.load(Ordering::SeqCst),
+            3,
+            "the reader waits for its places"
+        );
+        places.release();
+        got.extend((0..3).map(|_| s.next_item().unwrap().1));
+        assert_eq!(got, plain);
+        drop(s);
+        places.release();
     }
 
     /// A failed or panicking preparation ends the stream with its error at its

@@ -253,6 +253,13 @@ pub fn train_on<B: AutodiffBackend<InnerBackend: Pl2MapBackend> + Pl2MapBackend>
         Ok(p)
     })?;
     let frames_per_epoch = stream.frames_per_epoch();
+    // On the CPU the stream refills while Adam runs, not while the groups want the cores
+    // (stream.rs, `hold_places`); on a GPU it refills at once, as the device waits on it.
+    let places = config.device.is_cpu().then(|| stream.hold_places());
+    if let Some(p) = &places {
+        let p = p.clone();
+        state.set_on_gradients(Some(Box::new(move || p.release())));
+    }
 
     let mut metrics = MetricsWriter::open(out, start)?;
     let bar = progress_bar(config.iterations, start, options.progress);
@@ -300,6 +307,10 @@ pub fn train_on<B: AutodiffBackend<InnerBackend: Pl2MapBackend> + Pl2MapBackend>
             dropout_seed: seeds::derive(config.seed, Purpose::Dropout, i),
         };
         let report = pool.install(|| state.step_batch(&samples, &step))?;
+        // A step that made no gradients, or one stacked pass, has not released them yet.
+        if let Some(p) = &places {
+            p.release();
+        }
         if !report.updated {
             skipped += 1;
         }
