@@ -262,7 +262,11 @@ impl<T: Send + 'static> FrameStream<T> {
     /// step's barrier. The trainer releases the places when the step's gradients are
     /// made, so that work overlaps the memory-bound Adam update instead: the main job's
     /// step took 0.0345-0.0351 s instead of 0.0369-0.0375 s (docs/performance.md, "The
-    /// sample stream's places"). The items are the same either way.
+    /// sample stream's places"). The items are the same either way. The caller must
+    /// release before it takes more than the stream's places (`prefetch + workers`)
+    /// in a row, or [`FrameStream::next_item`] waits for an item the reader cannot read
+    /// (the trainer's prefetch is at least two steps' samples, and it releases every
+    /// step).
     pub fn hold_places(&mut self) -> PlaceRelease {
         self.places.hold.store(true, Ordering::SeqCst);
         PlaceRelease(Arc::clone(&self.places))
