@@ -10,10 +10,11 @@
 //!
 //! The arithmetic is the composed path's: the same `gemm` calls on the same operands
 //! (burn's `linear` is `x.matmul(W)`, its backward `grad.matmul(W^T)` and
-//! `x^T.matmul(grad)`; the first, for a layer with few rows, as the product's transpose,
-//! whose elements are the same sums: [`input_gradient`]), the bias added to the finished product, burn-flex's ReLU
-//! (`max(z, 0)`, and backward the gradient where the output is positive, 0 elsewhere) and
-//! burn-flex's own first-dimension sum for the bias. The results equal the composed
+//! `x^T.matmul(grad)`; the first, for a layer with few rows, as the product's
+//! transpose, whose elements are the same sums: [`input_gradient`]), the bias added to
+//! the finished product, burn-flex's ReLU (`max(z, 0)`, and backward the gradient where
+//! the output is positive, 0 elsewhere) and burn-flex's own first-dimension sum for the
+//! bias. The results equal the composed
 //! path's bit for bit (test `matches_the_composed_path`) and never depend on the number of
 //! threads (element-wise passes; gemm's sums do not depend on its threads).
 
@@ -166,7 +167,7 @@ fn via_transpose(m: usize, k: usize, n: usize) -> bool {
 unsafe fn input_gradient(dz: Operand, w: Operand, (m, k, n): (usize, usize, usize)) -> Vec<f32> {
     if via_transpose(m, k, n) {
         let dxt = unsafe { new_product((k, m, n), w, transposed(dz), parallelism_of(k, m, n)) };
-        return crate::transpose::transposed(&dxt, k, m);
+        return crate::transpose::transposed_copy(&dxt, k, m);
     }
     unsafe { new_product((m, k, n), dz, transposed(w), parallelism_of(m, k, n)) }
 }

@@ -4,11 +4,13 @@
 //! Why: the dense layers' input gradient is computed as its transpose (`dense_kernel.rs`,
 //! `input_gradient`), and a plain element loop over a 256 x 512 matrix took as long as
 //! that saved (115 µs, reading one of the two sides with a stride of a row). Values are
-//! moved, never computed, so every path gives the same bits.
+//! moved, never computed, so every path gives the same bits. It checks for AVX itself
+//! rather than through `simd_dispatch.rs`, whose copies are one Rust loop compiled for
+//! each instruction set: the shuffles here are AVX intrinsics with no baseline form.
 
 /// `src` holds `rows` x `cols` values row-major; returns its transpose, `cols` x `rows`
 /// row-major.
-pub(crate) fn transposed(src: &[f32], rows: usize, cols: usize) -> Vec<f32> {
+pub(crate) fn transposed_copy(src: &[f32], rows: usize, cols: usize) -> Vec<f32> {
     assert_eq!(
         src.len(),
         rows * cols,
@@ -21,13 +23,13 @@ pub(crate) fn transposed(src: &[f32], rows: usize, cols: usize) -> Vec<f32> {
         unsafe { transpose_avx(src, rows, cols, &mut dst) };
         return dst;
     }
-    transpose_blocks(src, rows, cols, &mut dst, 0, 0);
+    transpose_rest(src, rows, cols, &mut dst, 0, 0);
     dst
 }
 
 /// The elements of rows `r0..` and columns `c0..` not covered by whole 8 x 8 blocks below
 /// (r0, c0: where those blocks end), or everything with r0 = c0 = 0: one at a time.
-fn transpose_blocks(src: &[f32], rows: usize, cols: usize, dst: &mut [f32], r0: usize, c0: usize) {
+fn transpose_rest(src: &[f32], rows: usize, cols: usize, dst: &mut [f32], r0: usize, c0: usize) {
     for r in 0..rows {
         let from = if r < r0 { c0 } else { 0 };
         for c in from..cols {
@@ -76,7 +78,7 @@ unsafe fn transpose_avx(src: &[f32], rows: usize, cols: usize, dst: &mut [f32]) 
             }
         }
     }
-    transpose_blocks(src, rows, cols, dst, r8, c8);
+    transpose_rest(src, rows, cols, dst, r8, c8);
 }
 
 #[cfg(test)]
@@ -96,7 +98,7 @@ mod tests {
                         _ => i as f32 * 0.37 - 5.0,
                     })
                     .collect();
-                let t = transposed(&src, rows, cols);
+                let t = transposed_copy(&src, rows, cols);
                 for r in 0..rows {
                     for c in 0..cols {
                         assert_eq!(

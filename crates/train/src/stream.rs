@@ -250,8 +250,6 @@ impl<T: Send + 'static> FrameStream<T> {
         self.frames_per_epoch
     }
 
-    /// The next prepared frame, in stream order. An error (a frame that does not read
-    /// or decode, a failed preparation) ends the stream.
     /// From now on the places of the items taken are given back to the reader only when
     /// the returned handle's [`PlaceRelease::release`] is called, not as each item is
     /// taken.
@@ -272,6 +270,8 @@ impl<T: Send + 'static> FrameStream<T> {
         PlaceRelease(Arc::clone(&self.places))
     }
 
+    /// The next prepared frame, in stream order. An error (a frame that does not read
+    /// or decode, a failed preparation) ends the stream.
     pub fn next_item(&mut self) -> Result<(StreamPosition, T), TrainError> {
         let ended = || TrainError::Stream("the stream has ended".into());
         let item = loop {
@@ -522,7 +522,6 @@ mod tests {
     /// alive (dropping the stream returns) nor fails afterwards.
     #[test]
     fn held_places_bound_the_reader_until_released() {
-        use std::sync::atomic::AtomicUsize;
         let dir = tempfile::tempdir().unwrap();
         let paths = write_synthetic_shards(dir.path(), 2, 4, 0.0);
         let plain: Vec<u64> = {
