@@ -83,7 +83,7 @@ mod tests {
             camera: Camera::new(CameraModel::Pinhole, 64, 48, vec![50.0, 50.0, 32.0, 24.0])
                 .unwrap(),
             pose: Pose::identity(),
-            image_bytes: vec![0x89, b'P', b'N', b'G', 0x0D, 0x0A, 0x1A, 0x0A],
+            image_bytes: vec![0x89, b'P', b'N', b'G', 0x0D, 0x0A, 0x1A, 0x0A].into(),
             image_format: ImageFormat::Png,
             keypoints: vec![[1.0, 2.0], [3.0, 4.0]],
             point3d_ids: vec![7, -1],

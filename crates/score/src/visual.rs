@@ -174,7 +174,7 @@ impl VisualWriter {
             &CompressedImage {
                 timestamp: Some(ts),
                 frame_id: CAMERA_FRAME.into(),
-                data: prost::bytes::Bytes::copy_from_slice(&r.image_bytes),
+                data: r.image_bytes.clone(),
                 format: r.image_format.as_str().into(),
             },
         )?;

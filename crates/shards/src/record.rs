@@ -1,6 +1,7 @@
 //! The per-frame record the shard stage hands to the writer and the reader gives back.
 
 use crate::error::ShardError;
+use bytes::Bytes;
 use geometry::{Camera, Pose};
 use serde::{Deserialize, Serialize};
 pub use tables::{LabelSource, Split};
@@ -70,8 +71,11 @@ pub struct FrameRecord {
     pub camera: Camera,
     /// World-to-camera.
     pub pose: Pose,
-    /// The original image file's bytes, never re-encoded.
-    pub image_bytes: Vec<u8>,
+    /// The original image file's bytes, never re-encoded. A [`Bytes`]: a frame read
+    /// from a shard holds a slice of its decompressed chunk instead of a copy (the
+    /// trainer's reader thread spent half its time copying images it then did not
+    /// decode); `Vec<u8>::into()` makes one.
+    pub image_bytes: Bytes,
     pub image_format: ImageFormat,
     /// COLMAP pixels (centre of the top-left pixel at (0.5, 0.5)).
     pub keypoints: Vec<[f64; 2]>,
@@ -99,7 +103,7 @@ impl FrameRecord {
         split: Split,
         camera: Camera,
         pose: Pose,
-        image_bytes: Vec<u8>,
+        image_bytes: impl Into<Bytes>,
         image_format: ImageFormat,
     ) -> Self {
         FrameRecord {
@@ -108,7 +112,7 @@ impl FrameRecord {
             split,
             camera,
             pose,
-            image_bytes,
+            image_bytes: image_bytes.into(),
             image_format,
             keypoints: Vec::new(),
             point3d_ids: Vec::new(),
@@ -252,7 +256,7 @@ mod tests {
             )
             .unwrap(),
             pose: Pose::identity(),
-            image_bytes: png,
+            image_bytes: png.into(),
             image_format: ImageFormat::Png,
             keypoints: vec![[1.5, 2.5], [3.0, 4.0]],
             point3d_ids: vec![4, -1],
@@ -306,7 +310,7 @@ mod tests {
             ),
             (
                 "do not start with a PNG or JPEG",
-                Box::new(|f| f.image_bytes = b"GIF89a".to_vec()),
+                Box::new(|f| f.image_bytes = Bytes::from_static(b"GIF89a")),
             ),
             (
                 "camera:",

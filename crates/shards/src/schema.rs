@@ -62,7 +62,7 @@ pub(crate) fn to_proto(f: &FrameRecord) -> proto::FrameLabels {
 /// enum and the camera and pose. The error says what is wrong; the caller adds where.
 pub(crate) fn from_proto(
     m: proto::FrameLabels,
-    image_bytes: Vec<u8>,
+    image_bytes: bytes::Bytes,
     image_format: ImageFormat,
 ) -> Result<FrameRecord, String> {
     let split = match proto::Split::try_from(m.split) {
@@ -189,7 +189,7 @@ mod tests {
         assert_eq!(bits(&back.qvec), bits(&m.qvec));
         assert_eq!(bits(&back.tvec), bits(&m.tvec));
         assert_eq!(bits(&back.points3d), bits(&m.points3d));
-        let f = from_proto(back, vec![], ImageFormat::Png).unwrap();
+        let f = from_proto(back, Default::default(), ImageFormat::Png).unwrap();
         assert_eq!(f.pose.qvec()[1].to_bits(), (-0.0f64).to_bits());
         assert_eq!(f.split, Split::Test);
         assert_eq!(f.label_source, LabelSource::DepthRefined);
@@ -211,7 +211,7 @@ mod tests {
             }),
             ..Default::default()
         };
-        from_proto(good.clone(), vec![], ImageFormat::Png).unwrap();
+        from_proto(good.clone(), Default::default(), ImageFormat::Png).unwrap();
         type Mutation = Box<dyn Fn(&mut proto::FrameLabels)>;
         let cases: Vec<(&str, Mutation)> = vec![
             ("unknown split value 9", Box::new(|m| m.split = 9)),
@@ -261,7 +261,7 @@ mod tests {
         for (want, mutate) in cases {
             let mut m = good.clone();
             mutate(&mut m);
-            let err = from_proto(m, vec![], ImageFormat::Png).expect_err(want);
+            let err = from_proto(m, Default::default(), ImageFormat::Png).expect_err(want);
             assert!(err.contains(want), "expected {want:?} in {err:?}");
         }
     }

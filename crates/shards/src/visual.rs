@@ -31,7 +31,7 @@ pub(crate) fn compressed_image(f: &FrameRecord, ts: Timestamp) -> CompressedImag
     CompressedImage {
         timestamp: Some(ts),
         frame_id: CAMERA_FRAME.into(),
-        data: prost::bytes::Bytes::copy_from_slice(&f.image_bytes),
+        data: f.image_bytes.clone(),
         format: f.image_format.as_str().into(),
     }
 }
@@ -239,7 +239,7 @@ mod tests {
                 UnitQuaternion::from_euler_angles(0.1, -0.4, 0.9),
                 Vector3::new(0.3, -1.0, 2.0),
             ),
-            image_bytes: vec![],
+            image_bytes: Default::default(),
             image_format: ImageFormat::Png,
             keypoints: vec![[0.0; 2]; 3],
             point3d_ids: vec![0, -1, 2],

@@ -123,6 +123,38 @@ fn chunk_cache_decompresses_each_chunk_of_a_window_once() {
     assert!(read(1) >= cached);
 }
 
+/// A frame's image is a view of its decompressed chunk, not a copy: reading the same
+/// frame twice through the chunk cache gives the same bytes at the same address, and a
+/// record keeps its chunk alive after the reader is gone.
+#[test]
+fn images_are_views_of_the_cached_chunk() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = frames(0..6);
+    let path = small_chunked_shard(dir.path(), &input);
+    let options = shards::ReaderOptions {
+        cache_bytes: 1 << 30,
+        ..Default::default()
+    };
+    let mut reader = ShardReader::open_with([&path], options).unwrap();
+    let first = reader.read_frame(3).unwrap();
+    let again = reader.read_frame(3).unwrap();
+    assert_eq!(reader.chunks_decompressed(), first_chunks(&path, 3));
+    assert_eq!(first.image_bytes.as_ptr(), again.image_bytes.as_ptr());
+    // Another reader decompresses its own chunk: equal bytes elsewhere.
+    let other = ShardReader::open([&path]).unwrap().read_frame(3).unwrap();
+    assert_ne!(first.image_bytes.as_ptr(), other.image_bytes.as_ptr());
+    drop(reader);
+    assert_bitwise_eq(&first, &input[3]);
+    assert_bitwise_eq(&other, &input[3]);
+}
+
+/// Chunks a fresh reader decompresses to read `frame` (its image's and its labels').
+fn first_chunks(path: &std::path::Path, frame: u64) -> u64 {
+    let mut r = ShardReader::open([path]).unwrap();
+    r.read_frame(frame).unwrap();
+    r.chunks_decompressed()
+}
+
 fn source(all: &[FrameRecord]) -> impl FrameSource + '_ {
     move |id: u64| -> Result<FrameRecord, Box<dyn std::error::Error + Send + Sync>> {
         all.iter()

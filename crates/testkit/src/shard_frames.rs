@@ -169,7 +169,7 @@ pub fn frame_with_image(
         },
         camera: camera(frame_id, u64::from(w), u64::from(h)),
         pose,
-        image_bytes: image,
+        image_bytes: image.into(),
         image_format: format,
         keypoints,
         point3d_ids: ids,

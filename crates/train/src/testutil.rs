@@ -111,7 +111,7 @@ pub fn frame(frame_id: u64, n: usize, m: usize, label_noise_m: f64) -> FrameReco
         split: Split::Train,
         camera: cam,
         pose,
-        image_bytes: png(&texture(&mut rng)),
+        image_bytes: png(&texture(&mut rng)).into(),
         image_format: ImageFormat::Png,
         point3d_ids: (0..n as i64).collect(),
         keypoints,

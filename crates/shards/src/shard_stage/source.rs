@@ -124,7 +124,7 @@ impl Source<'_> {
             path: f.path.clone(),
             reason,
         })?;
-        rec.image_bytes = bytes;
+        rec.image_bytes = bytes.into();
         Ok(rec)
     }
 
