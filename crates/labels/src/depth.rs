@@ -83,10 +83,14 @@ impl DepthMap {
         units_per_metre: f64,
         max_depth_m: f64,
     ) -> Result<DepthMap, DepthError> {
-        let img = image::open(path).map_err(|source| DepthError::Read {
+        let read_err = |source| DepthError::Read {
             path: path.to_path_buf(),
             source,
-        })?;
+        };
+        // `load_from_memory` (the format from the bytes) rather than `image::open`,
+        // which is generic over its reader and so compiled every decoder again here.
+        let bytes = std::fs::read(path).map_err(|e| read_err(image::ImageError::IoError(e)))?;
+        let img = image::load_from_memory(&bytes).map_err(read_err)?;
         match img {
             DynamicImage::ImageLuma16(d) => {
                 let (w, h) = d.dimensions();

@@ -30,13 +30,25 @@ pub fn white_buffer(width: u32, height: u32) -> Vec<u8> {
 }
 
 /// The PNG bytes of an RGB buffer (deterministic: no time stamp, fixed settings).
+///
+/// The one PNG encoder of the plotting crates: the PNG encoder itself, with the settings
+/// `write_to(.., ImageFormat::Png)` uses (same bytes), because `write_to` is generic
+/// over its writer and compiles every enabled encoder (PNG, JPEG, TIFF) again in each
+/// crate that calls it.
 pub fn png(buf: Vec<u8>, width: u32, height: u32) -> Result<Vec<u8>, String> {
-    let img = image::RgbImage::from_raw(width, height, buf)
-        .ok_or_else(|| "plot buffer of the wrong size".to_string())?;
-    let mut out = std::io::Cursor::new(Vec::new());
-    img.write_to(&mut out, image::ImageFormat::Png)
+    use image::ImageEncoder as _;
+    let expected = width as usize * height as usize * 3;
+    if buf.len() != expected {
+        return Err(format!(
+            "plot buffer of the wrong size: {} bytes for {width} x {height} RGB",
+            buf.len()
+        ));
+    }
+    let mut out = Vec::new();
+    image::codecs::png::PngEncoder::new(&mut out)
+        .write_image(&buf, width, height, image::ExtendedColorType::Rgb8)
         .map_err(|e| format!("encoding the plot: {e}"))?;
-    Ok(out.into_inner())
+    Ok(out)
 }
 
 #[cfg(test)]
@@ -80,5 +92,20 @@ mod tests {
             .filter(|(x, _, p)| *x > 100 && p.0.iter().all(|&c| c < 100))
             .count();
         assert!(dark > 20, "{dark} dark pixels");
+    }
+
+    /// `png` writes the bytes the image crate's generic `write_to` writes (the plots'
+    /// files did not change when it replaced it), and refuses a buffer of the wrong size.
+    #[test]
+    fn png_is_the_image_crates_png() {
+        let drawn = image::load_from_memory(&draw("cdf")).unwrap().to_rgb8();
+        let (w, h) = drawn.dimensions();
+        let mut generic = std::io::Cursor::new(Vec::new());
+        drawn
+            .write_to(&mut generic, image::ImageFormat::Png)
+            .unwrap();
+        assert_eq!(png(drawn.into_raw(), w, h).unwrap(), generic.into_inner());
+        let err = png(vec![0; 10], 2, 2).unwrap_err();
+        assert!(err.contains("10 bytes for 2 x 2"), "{err}");
     }
 }

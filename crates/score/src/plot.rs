@@ -212,9 +212,8 @@ fn png_error(reason: String) -> image::ImageError {
 /// Encodes [`render`] as PNG.
 pub fn png_bytes(results: &[FrameResult]) -> Result<Vec<u8>, image::ImageError> {
     let img = render(results).map_err(png_error)?;
-    let mut buf = std::io::Cursor::new(Vec::new());
-    img.write_to(&mut buf, image::ImageFormat::Png)?;
-    Ok(buf.into_inner())
+    let (w, h) = img.dimensions();
+    plot::png(img.into_raw(), w, h).map_err(png_error)
 }
 
 /// Writes the plot atomically.

@@ -238,12 +238,9 @@ fn png_bytes(metrics: &Path) -> Result<Vec<u8>, TrainError> {
         .collect();
     let img = render(&iterations, &series)
         .map_err(|e| TrainError::Image(format!("{}: {e}", metrics.display())))?;
-    let mut bytes = std::io::Cursor::new(Vec::new());
-    img.write_to(&mut bytes, image::ImageFormat::Png)
-        .map_err(|e| {
-            TrainError::Image(format!("encoding the plot of {}: {e}", metrics.display()))
-        })?;
-    Ok(bytes.into_inner())
+    let (w, h) = img.dimensions();
+    plot::png(img.into_raw(), w, h)
+        .map_err(|e| TrainError::Image(format!("{}: {e}", metrics.display())))
 }
 
 /// Plots the loss columns of a metrics file into `out` (atomically).

@@ -4,6 +4,7 @@
 //! contact sheet OUT/<scene>/preview.png. The flags are those of `synth::SynthConfig`.
 
 use anyhow::Context;
+use image::ImageEncoder as _;
 use std::path::{Path, PathBuf};
 use synth::{Split, SynthConfig, color_name, contact_sheet};
 
@@ -67,8 +68,11 @@ fn write_preview(cfg: &SynthConfig, root: &Path, path: &Path) -> anyhow::Result<
     let mut sheet = Vec::with_capacity(n);
     for k in 0..n {
         let f = &train[k * train.len() / n];
-        let rgb = image::open(f)
-            .with_context(|| format!("reading {}", f.display()))?
+        // `load_from_memory`, not `image::open`: the latter is generic over its reader
+        // and would compile every image decoder again in this crate.
+        let bytes = std::fs::read(f).with_context(|| format!("reading {}", f.display()))?;
+        let rgb = image::load_from_memory(&bytes)
+            .with_context(|| format!("decoding {}", f.display()))?
             .to_rgb8();
         let gray = features::gray_from_rgb(&rgb);
         let kps = features::detect_keypoints(&gray, &fe.sift)
@@ -78,12 +82,16 @@ fn write_preview(cfg: &SynthConfig, root: &Path, path: &Path) -> anyhow::Result<
         sheet.push((rgb, kps.into_iter().map(|k| k.xy).collect(), segs));
     }
     let img = contact_sheet(&sheet, 3);
+    // The PNG encoder alone (`write_to` would compile every encoder in this crate).
     let mut bytes = Vec::new();
-    img.write_to(
-        &mut std::io::Cursor::new(&mut bytes),
-        image::ImageFormat::Png,
-    )
-    .with_context(|| format!("encoding {}", path.display()))?;
+    image::codecs::png::PngEncoder::new(&mut bytes)
+        .write_image(
+            img.as_raw(),
+            img.width(),
+            img.height(),
+            image::ExtendedColorType::Rgb8,
+        )
+        .with_context(|| format!("encoding {}", path.display()))?;
     stage::write_atomic(path, &bytes)?;
     Ok(())
 }
