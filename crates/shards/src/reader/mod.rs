@@ -6,7 +6,8 @@
 //! the decompressed chunk. Reading a frame decompresses its chunk once (checking the
 //! chunk's CRC) and slices the two messages out; the Foxglove visualisation channels
 //! are never decoded. A record's image is a view of the decompressed chunk (no copy),
-//! so a record kept alive keeps its chunk (4 MiB by default) in memory. Seeking is a table look-up: no chunk before the frame's is read.
+//! so a record kept alive keeps its chunk (4 MiB by default) in memory. Seeking is a
+//! table look-up: no chunk before the frame's is read.
 //!
 //! Every offset and length read from a file is checked against the bytes there
 //! before use; a bad shard gives a [`ShardError`] naming the file and the place.
