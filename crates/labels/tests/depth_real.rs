@@ -41,7 +41,7 @@ fn real_seven_scenes_depth_maps_read_as_opencv_reads_them() {
     let dump = run(Command::new(&py).arg("-c").arg(DUMP).args(&paths));
 
     let mut at = 0;
-    let mut u32_at = |at: &mut usize| {
+    let u32_at = |at: &mut usize| {
         let v = u32::from_le_bytes(dump[*at..*at + 4].try_into().unwrap());
         *at += 4;
         v

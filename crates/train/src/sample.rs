@@ -325,8 +325,8 @@ pub fn prepare_with_cache<R: Rng>(
             .zip(&segments)
             .all(|(&j, s)| frame.segments[j] == *s);
     // The rows of the whole frame, in the order of the sample's keypoints and segments.
-    // Whole rows copied as slices: a `flat_map` over the values copied them one by one,
-    // about 1 ms of the reader thread's CPU a step in the main job's training.
+    // Whole rows copied as slices (the cost is reading rows scattered over the cache,
+    // not the copy: docs/performance.md, "The reader thread's image copy").
     let rows_of = |all: &[f32], index: &[usize], width: usize| -> Vec<f32> {
         let mut out = Vec::with_capacity(index.len() * width);
         for &i in index {

@@ -259,7 +259,7 @@ impl<T: Send + 'static> FrameStream<T> {
     /// groups wanted both cores; the group they held back kept the other waiting at the
     /// step's barrier. The trainer releases the places when the step's gradients are
     /// made, so that work overlaps the memory-bound Adam update instead: the main job's
-    /// step took 0.0345-0.0351 s instead of 0.0369-0.0375 s (docs/performance.md, "The
+    /// step took 0.0350-0.0354 s instead of 0.0372-0.0375 s (docs/performance.md, "The
     /// sample stream's places"). The items are the same either way. The caller must
     /// release before it takes more than the stream's places (`prefetch + workers`)
     /// in a row, or [`FrameStream::next_item`] waits for an item the reader cannot read
