@@ -17,7 +17,12 @@
 //! bias. The results equal the composed
 //! path's bit for bit (test `matches_the_composed_path`) and never depend on the number of
 //! threads (element-wise passes; gemm's sums do not depend on its threads).
+//!
+//! In a training step set to bf16 products (`bf16_products.rs`) the three products of a
+//! layer whose dimensions are all at least 32 take bf16 operands instead; the rest is
+//! unchanged.
 
+use crate::bf16_products::{new_product_as_set, new_product_bf16, takes_bf16};
 use crate::flex_matrix::{Operand, View, new_product, parallelism_of, tensor, transposed};
 use crate::simd_dispatch::dispatch;
 use burn::backend::Flex;
@@ -73,8 +78,7 @@ pub(crate) fn forward(
     let Shapes { x, w, m, k, n } = Shapes::of(x, w)?;
     let bias = bias_values(b, n)?;
     // SAFETY: both views were checked by View::of, their shapes fit and are positive.
-    let mut out =
-        unsafe { new_product((m, n, k), x.operand(), w.operand(), parallelism_of(m, n, k)) };
+    let mut out = unsafe { new_product_as_set((m, n, k), x.operand(), w.operand()) };
     out.par_chunks_mut(ROWS_PER_TASK * n)
         .for_each(|rows| add_bias(rows, &bias, relu));
     Some(tensor(out, vec![m, n]))
@@ -128,14 +132,7 @@ pub(crate) fn backward(
         )
     });
     // dW = x^T dz: [k, n].
-    let dw = unsafe {
-        new_product(
-            (k, n, m),
-            transposed(x.operand()),
-            dz,
-            parallelism_of(k, n, m),
-        )
-    };
+    let dw = unsafe { new_product_as_set((k, n, m), transposed(x.operand()), dz) };
     // db: burn's own first-dimension sum (its summation order depends on the layout).
     let db = Flex::float_reshape(Flex::float_sum_dim(dz_tensor, 0), Shape::new([n]));
     Some((dx, tensor(dw, vec![k, n]), db))
@@ -165,6 +162,10 @@ fn via_transpose(m: usize, k: usize, n: usize) -> bool {
 /// SAFETY: dz reaches m x n and w k x n valid elements through their strides; m, n,
 /// k > 0.
 unsafe fn input_gradient(dz: Operand, w: Operand, (m, k, n): (usize, usize, usize)) -> Vec<f32> {
+    if takes_bf16(m, k, n) {
+        // The tiles' packing reads either layout alike: no transpose needed.
+        return unsafe { new_product_bf16((m, k, n), dz, transposed(w)) };
+    }
     if via_transpose(m, k, n) {
         let dxt = unsafe { new_product((k, m, n), w, transposed(dz), parallelism_of(k, m, n)) };
         return crate::transpose::transposed_copy(&dxt, k, m);

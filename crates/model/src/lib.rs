@@ -21,11 +21,13 @@
 
 pub mod adam;
 pub mod alloc;
+mod amx;
 pub mod attention;
 mod attention_kernel;
 pub mod autodiff_lock;
 pub mod backend;
 pub mod bench;
+pub mod bf16_products;
 pub mod config;
 #[cfg(feature = "cuda")]
 mod cuda_check;

@@ -2,6 +2,7 @@
 
 use crate::adam::FusedAdam;
 use crate::backend::Pl2MapBackend;
+use crate::bf16_products::{Products, with_products};
 use crate::config::ModelConfig;
 use crate::dropout::Dropout;
 use crate::error::ModelError;
@@ -73,6 +74,8 @@ pub struct TrainState<B: AutodiffBackend<InnerBackend: Pl2MapBackend> + Pl2MapBa
     group_pools: Option<GroupPools>,
     /// Called once a grouped step's gradients are made, before its update.
     on_gradients: Option<Box<dyn Fn() + Send + Sync>>,
+    /// How the passes' products are computed (`bf16_products.rs`).
+    products: Products,
 }
 
 impl<B: AutodiffBackend<InnerBackend: Pl2MapBackend> + Pl2MapBackend> TrainState<B> {
@@ -85,6 +88,7 @@ impl<B: AutodiffBackend<InnerBackend: Pl2MapBackend> + Pl2MapBackend> TrainState
             batch_groups: 1,
             group_pools: None,
             on_gradients: None,
+            products: Products::F32,
         })
     }
 
@@ -123,6 +127,7 @@ impl<B: AutodiffBackend<InnerBackend: Pl2MapBackend> + Pl2MapBackend> TrainState
             batch_groups: 1,
             group_pools: None,
             on_gradients: None,
+            products: Products::F32,
         })
     }
 
@@ -163,14 +168,17 @@ impl<B: AutodiffBackend<InnerBackend: Pl2MapBackend> + Pl2MapBackend> TrainState
         if ranges.len() > 1 {
             return self.step_grouped(samples, &ranges, options);
         }
+        let products = self.products;
         let model = self.model();
-        let (values, total) = forward_loss(
-            model,
-            samples,
-            &self.loss,
-            options.progress,
-            options.dropout_seed,
-        )?;
+        let (values, total) = with_products(products, || {
+            forward_loss(
+                model,
+                samples,
+                &self.loss,
+                options.progress,
+                options.dropout_seed,
+            )
+        })?;
         let losses = LossValues::mean(&values);
         let Some(total) = total else {
             return Ok(StepReport {
@@ -186,7 +194,8 @@ impl<B: AutodiffBackend<InnerBackend: Pl2MapBackend> + Pl2MapBackend> TrainState
         };
         let lr = options.learning_rate;
         self.adam_step(|optimizer, model| {
-            let grads = GradientsParams::from_grads(total.backward(), &model);
+            let grads = with_products(products, || total.backward());
+            let grads = GradientsParams::from_grads(grads, &model);
             optimizer.step(lr, model, grads)
         });
         Ok(StepReport {
@@ -217,6 +226,12 @@ impl<B: AutodiffBackend<InnerBackend: Pl2MapBackend> + Pl2MapBackend> TrainState
             _ => None,
         };
         Ok(())
+    }
+
+    /// How the forward and backward passes compute their matrix products (default f32;
+    /// `bf16_products.rs`). Part of the result, like the grouping.
+    pub fn set_products(&mut self, products: Products) {
+        self.products = products;
     }
 
     /// `f` is called in every grouped step once the groups' gradients are made, before
@@ -256,26 +271,30 @@ impl<B: AutodiffBackend<InnerBackend: Pl2MapBackend> + Pl2MapBackend> TrainState
         // one after another (no pools) need no barrier.
         let side_by_side = self.group_pools.is_some();
         let built = Barrier::new(if side_by_side { ranges.len() } else { 1 });
-        let work = |g: usize| -> Result<(Vec<LossValues>, Option<GradientsParams>), ModelError> {
-            let copy = &copies[g];
-            // Each group's share of the batch mean, so that the sum is the mean's gradient.
-            let forward = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-                forward_loss(
-                    copy,
-                    &samples[ranges[g].clone()],
-                    loss,
-                    options.progress,
-                    group_dropout_seed(options.dropout_seed, g),
-                )
-                .map(|(values, total)| (values, total.map(|t| t.div_scalar(n))))
-            }));
-            // Every group reaches the barrier, errors and panics included, or the others
-            // would wait for it forever; a panic is raised again after it.
-            built.wait();
-            let (values, total) = forward.unwrap_or_else(|p| std::panic::resume_unwind(p))?;
-            let grads = total.map(|t| GradientsParams::from_grads(t.backward(), copy));
-            Ok((values, grads))
-        };
+        let products = self.products;
+        let group_work =
+            |g: usize| -> Result<(Vec<LossValues>, Option<GradientsParams>), ModelError> {
+                let copy = &copies[g];
+                // Each group's share of the batch mean, so that the sum is the mean's gradient.
+                let forward = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+                    forward_loss(
+                        copy,
+                        &samples[ranges[g].clone()],
+                        loss,
+                        options.progress,
+                        group_dropout_seed(options.dropout_seed, g),
+                    )
+                    .map(|(values, total)| (values, total.map(|t| t.div_scalar(n))))
+                }));
+                // Every group reaches the barrier, errors and panics included, or the others
+                // would wait for it forever; a panic is raised again after it.
+                built.wait();
+                let (values, total) = forward.unwrap_or_else(|p| std::panic::resume_unwind(p))?;
+                let grads = total.map(|t| GradientsParams::from_grads(t.backward(), copy));
+                Ok((values, grads))
+            };
+        // On the group's own thread: the setting is per thread.
+        let work = |g: usize| with_products(products, || group_work(g));
         let results = match &self.group_pools {
             Some(pools) => pools.run(ranges.len(), work),
             None => (0..ranges.len()).map(work).collect(),
@@ -531,13 +550,24 @@ mod tests {
     /// Three steps on `batch` from seed 4 in `groups` groups (`threads` as
     /// `set_batch_groups` takes it): each step's loss and the probe's prediction.
     fn three_grouped_steps(
+        fixture: &(ModelConfig, Vec<Sample>, Sample),
+        groups: usize,
+        threads: Option<usize>,
+    ) -> (Vec<f64>, crate::HostPrediction) {
+        three_steps_with(fixture, groups, threads, Products::F32)
+    }
+
+    /// [`three_grouped_steps`] with the step's products set to `products`.
+    fn three_steps_with(
         (cfg, batch, probe): &(ModelConfig, Vec<Sample>, Sample),
         groups: usize,
         threads: Option<usize>,
+        products: Products,
     ) -> (Vec<f64>, crate::HostPrediction) {
         let mut s =
             TrainState::<AD>::init(cfg, LossConfig::indoor(), 4, &Default::default()).unwrap();
         s.set_batch_groups(groups, threads).unwrap();
+        s.set_products(products);
         // The hook before the update runs once a grouped step, never for a stacked one.
         let calls = Arc::new(std::sync::atomic::AtomicUsize::new(0));
         let counter = Arc::clone(&calls);
@@ -588,6 +618,39 @@ mod tests {
         s.set_batch_groups(8, Some(2)).unwrap();
         assert!(s.step_batch(batch, &options(0, 0.9)).unwrap().updated);
         assert!(s.set_batch_groups(0, None).is_err());
+    }
+
+    /// bf16 products (`bf16_products.rs`) change the step's rounding only: the losses
+    /// stay close to the f32 step's (the gradients' closeness is `dense.rs`'s test;
+    /// Adam's first steps move every weight by about the learning rate whatever the
+    /// gradient's size, so the weights of a few steps are not compared), the trained
+    /// network differs (the products did take bf16 operands), and it does not depend on
+    /// the thread count, stacked or grouped. The setting does not leak: an f32 run
+    /// afterwards on the same threads gives the f32 weights.
+    #[test]
+    fn bf16_products_change_the_rounding_only_and_not_with_the_threads() {
+        let fixture = group_fixture();
+        let run = |groups: usize, threads: Option<usize>, products: Products| {
+            three_steps_with(&fixture, groups, threads, products)
+        };
+        let (f32_losses, f32_pred) = run(2, Some(2), Products::F32);
+        let (losses, pred) = run(2, Some(2), Products::Bf16);
+        for (a, b) in losses.iter().zip(&f32_losses) {
+            assert!((a - b).abs() < 1e-2 * b.abs().max(1.0), "{a} vs {b}");
+        }
+        assert_ne!(pred, f32_pred, "the hidden products took bf16 operands");
+        for threads in [Some(1), Some(3), None] {
+            assert_eq!(
+                run(2, threads, Products::Bf16).1,
+                pred,
+                "threads {threads:?}"
+            );
+        }
+        let stacked = run(1, Some(2), Products::Bf16).1;
+        assert_ne!(stacked, run(1, Some(2), Products::F32).1);
+        assert_eq!(run(1, Some(1), Products::Bf16).1, stacked);
+        assert_eq!(run(1, Some(3), Products::Bf16).1, stacked);
+        assert_eq!(run(2, Some(2), Products::F32).1, f32_pred);
     }
 
     /// Two trainers in one process (the tests run side by side; a library user may run

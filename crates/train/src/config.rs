@@ -5,6 +5,7 @@ use crate::augment::AugmentConfig;
 use crate::error::TrainError;
 use crate::sample::Limits;
 use features::FrontEndConfig;
+use model::bf16_products::Products;
 use model::{Device, LossConfig, ModelConfig};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
@@ -62,6 +63,18 @@ pub struct TrainConfig {
     #[serde(skip_serializing_if = "is_one")]
     #[arg(long, default_value_t = TrainConfig::default().batch_groups)]
     pub batch_groups: usize,
+    /// How the training passes compute their matrix products: `f32` (the reference's)
+    /// or `bf16` (operands rounded to bf16, sums in f32: mixed precision) for products
+    /// whose dimensions are all at least 32 (the dense layers' hidden products; output
+    /// layers stay f32). On CPUs with AMX
+    /// (Intel Sapphire Rapids and later) they run on its tiles, about three times as
+    /// fast; elsewhere gemm multiplies the rounded operands, no faster than f32. Part of
+    /// the result. Weights, optimiser and predictions stay f32 (model's
+    /// `bf16_products.rs`; docs/performance.md, "bf16 products on AMX tiles").
+    // Written only when not f32: records of runs made before it existed hold.
+    #[serde(skip_serializing_if = "is_f32")]
+    #[arg(long, default_value_t = TrainConfig::default().products)]
+    pub products: Products,
     #[arg(long, default_value_t = TrainConfig::default().learning_rate)]
     /// Adam's learning rate at the start.
     pub learning_rate: f64,
@@ -123,6 +136,10 @@ fn is_zero(v: &usize) -> bool {
     *v == 0
 }
 
+fn is_f32(v: &Products) -> bool {
+    *v == Products::F32
+}
+
 fn is_one(v: &usize) -> bool {
     *v == 1
 }
@@ -157,6 +174,7 @@ impl Default for TrainConfig {
             iterations: 10_000,
             batch_frames: 1,
             batch_groups: 1,
+            products: Products::F32,
             learning_rate: 3e-4,
             lr_schedule: LrSchedule::Steps,
             lr_halvings: 7,
@@ -222,6 +240,14 @@ impl TrainConfig {
             return bad(format!(
                 "batch_groups must be between 1 and batch_frames ({}), got {}",
                 self.batch_frames, self.batch_groups
+            ));
+        }
+        if self.products != Products::F32 && !self.device.is_cpu() {
+            // The bf16 products are the CPU kernels' (model's `bf16_products.rs`); a GPU
+            // run would silently train in f32.
+            return bad(format!(
+                "products = \"{}\" is a CPU setting; train on device {} with products = \"f32\"",
+                self.products, self.device
             ));
         }
         if !(self.learning_rate.is_finite() && self.learning_rate > 0.0) {
@@ -401,6 +427,30 @@ mod tests {
                 "{e}"
             );
         }
+    }
+
+    /// `products` defaults to f32 and is written only when not, so the records (and the
+    /// checkpoints' bytes) of f32 runs stay those of runs made before the key existed;
+    /// bf16 is part of the record; anything else is refused with the choices.
+    #[test]
+    fn products_default_to_f32_and_are_written_only_when_not() {
+        let text = TrainConfig::default().to_toml();
+        assert!(!text.contains("products"), "{text}");
+        let c: TrainConfig = toml::from_str("products = \"bf16\"").unwrap();
+        assert_eq!(c.products, Products::Bf16);
+        assert!(c.to_toml().contains("products = \"bf16\""));
+        assert_eq!(c.for_record().products, Products::Bf16);
+        let e = toml::from_str::<TrainConfig>("products = \"f16\"")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("f32") && e.contains("bf16"), "{e}");
+        let gpu = TrainConfig {
+            products: Products::Bf16,
+            device: Device::Cuda(0),
+            ..Default::default()
+        };
+        let e = gpu.validate().unwrap_err().to_string();
+        assert!(e.contains("products") && e.contains("CPU"), "{e}");
     }
 
     #[test]

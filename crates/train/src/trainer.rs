@@ -209,6 +209,17 @@ pub fn train_on<B: AutodiffBackend<InnerBackend: Pl2MapBackend> + Pl2MapBackend>
     // them one after another (the same weights either way).
     let group_threads = config.device.is_cpu().then(rayon::current_num_threads);
     state.set_batch_groups(config.batch_groups, group_threads)?;
+    state.set_products(config.products);
+    if config.products == model::bf16_products::Products::Bf16 {
+        if model::bf16_products::on_amx() {
+            tracing::info!("bf16 products on AMX tiles");
+        } else {
+            tracing::warn!(
+                "bf16 products without AMX (this CPU or kernel has none): gemm multiplies \
+                 the rounded operands, slower than products = \"f32\""
+            );
+        }
+    }
 
     let stream_cfg = StreamConfig {
         shuffle_buffer: config.shuffle_buffer,
