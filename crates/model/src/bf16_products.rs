@@ -13,7 +13,7 @@
 //! heads); smaller ones (an output layer of 3 or 4 columns, a gradient summed over 4
 //! terms) stay f32, so the coordinates and reliabilities come out of f32 products. On a
 //! CPU without AMX the rounded operands are multiplied by gemm: the same products, summed
-//! in another order (results differ in the last bits), and no faster than f32. Results
+//! in another order (results differ in the last bits), and slower than f32. Results
 //! never depend on the thread count: every output element is one block's sum, whoever
 //! computes it.
 //!
@@ -25,6 +25,7 @@ use crate::flex_matrix::{Operand, SendPtr, new_product, parallelism_of};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::cell::Cell;
+use std::mem::MaybeUninit;
 
 /// How a training step's matrix products are computed.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -260,14 +261,7 @@ unsafe fn pack_rows(
     } else {
         // SAFETY: the caller's promise.
         let src = unsafe { contiguous(o, rows, cols) };
-        let mut out: Vec<u32> = Vec::with_capacity(rows_p * cols_p / 2);
-        for row in src.chunks_exact(cols) {
-            let at = out.len();
-            // SAFETY: capacity for rows_p x cols_p / 2 values; these are all written.
-            unsafe { out.set_len(at + cols_p / 2) };
-            row_pairs(&mut out[at..], row);
-        }
-        out
+        rows_as_pairs(&src, cols, cols_p)
     };
     out.resize(rows_p * cols_p / 2, 0);
     out
@@ -291,13 +285,7 @@ unsafe fn pack_pairs(
         // S's rows as neighbouring pairs, transposed.
         // SAFETY: the operand's storage is a contiguous cols x rows matrix.
         let src = unsafe { std::slice::from_raw_parts(o.ptr, rows * cols) };
-        let mut pairs: Vec<u32> = Vec::with_capacity(cols * rows_p / 2);
-        for row in src.chunks_exact(rows) {
-            let at = pairs.len();
-            // SAFETY: capacity for cols x rows_p / 2 values; these are all written.
-            unsafe { pairs.set_len(at + rows_p / 2) };
-            row_pairs(&mut pairs[at..], row);
-        }
+        let pairs = rows_as_pairs(src, rows, rows_p);
         return crate::transpose::transposed_copy_u32(&pairs, cols, rows_p / 2);
     }
     // SAFETY: the caller's promise.
@@ -305,58 +293,79 @@ unsafe fn pack_pairs(
     pairs_of_rows(&src, rows, cols, rows_p, cols_p)
 }
 
+/// The rows of `src` (each `len` values) as neighbouring bf16 pairs (2i, 2i + 1), the
+/// first in the low half, each row padded with zeros to `padded / 2` pairs.
+fn rows_as_pairs(src: &[f32], len: usize, padded: usize) -> Vec<u32> {
+    let (rows, width) = (src.len() / len, padded / 2);
+    let mut out: Vec<u32> = Vec::with_capacity(rows * width);
+    let spare = &mut out.spare_capacity_mut()[..rows * width];
+    for (dst, row) in spare.chunks_exact_mut(width).zip(src.chunks_exact(len)) {
+        row_pairs(dst, row);
+    }
+    // SAFETY: row_pairs wrote every one of the rows x width values.
+    unsafe { out.set_len(rows * width) };
+    out
+}
+
 /// The rows (2p, 2p + 1) of a row-major [rows, cols] matrix as bf16 pairs, the first in
 /// the low half: `rows_p / 2` rows of `cols_p` pairs, zeros past `rows` and `cols`.
 fn pairs_of_rows(src: &[f32], rows: usize, cols: usize, rows_p: usize, cols_p: usize) -> Vec<u32> {
+    let filled = rows.div_ceil(2);
     let mut out: Vec<u32> = Vec::with_capacity(rows_p / 2 * cols_p);
     let zeros = vec![0f32; cols];
-    for p in 0..rows.div_ceil(2) {
+    let spare = &mut out.spare_capacity_mut()[..filled * cols_p];
+    for (p, dst) in spare.chunks_exact_mut(cols_p).enumerate() {
         let first = &src[2 * p * cols..][..cols];
         let second = src
             .get((2 * p + 1) * cols..(2 * p + 2) * cols)
             .unwrap_or(&zeros);
-        let at = out.len();
-        // SAFETY: capacity for rows_p / 2 x cols_p values; these cols_p are written below.
-        unsafe { out.set_len(at + cols_p) };
-        interleave(&mut out[at..at + cols], first, second);
-        out[at + cols..].fill(0);
+        interleave(&mut dst[..cols], first, second);
+        zero(&mut dst[cols..]);
     }
+    // SAFETY: every one of the filled x cols_p values was written above.
+    unsafe { out.set_len(filled * cols_p) };
     out.resize(rows_p / 2 * cols_p, 0);
     out
 }
 
 /// `dst` (every element written) = `row`'s neighbours (2i, 2i + 1) as bf16 pairs, the
 /// first in the low half, zeros past the row's end.
-fn row_pairs(dst: &mut [u32], row: &[f32]) {
+fn row_pairs(dst: &mut [MaybeUninit<u32>], row: &[f32]) {
     let even = row.len() / 2;
     neighbours(&mut dst[..even], &row[..2 * even]);
     let mut rest = even;
     if row.len() % 2 == 1 {
-        dst[even] = to_bf16(row[row.len() - 1]) as u32;
+        dst[even].write(to_bf16(row[row.len() - 1]) as u32);
         rest += 1;
     }
-    dst[rest..].fill(0);
+    zero(&mut dst[rest..]);
+}
+
+fn zero(dst: &mut [MaybeUninit<u32>]) {
+    for d in dst {
+        d.write(0);
+    }
 }
 
 /// `dst[i]` = the pair (`src[2i]`, `src[2i + 1]`) in bf16, the first in the low half, with
 /// the widest vectors this CPU has.
-fn neighbours(dst: &mut [u32], src: &[f32]) {
+fn neighbours(dst: &mut [MaybeUninit<u32>], src: &[f32]) {
     crate::simd_dispatch::dispatch!(
         baseline,
-        (dst: &mut [u32], src: &[f32]),
+        (dst: &mut [MaybeUninit<u32>], src: &[f32]),
         for (d, s) in dst.iter_mut().zip(src.chunks_exact(2)) {
-            *d = to_bf16(s[0]) as u32 | (to_bf16(s[1]) as u32) << 16;
+            d.write(to_bf16(s[0]) as u32 | (to_bf16(s[1]) as u32) << 16);
         }
     )
 }
 
 /// `dst[i]` = the pair (`first[i]`, `second[i]`) in bf16, the first in the low half.
-fn interleave(dst: &mut [u32], first: &[f32], second: &[f32]) {
+fn interleave(dst: &mut [MaybeUninit<u32>], first: &[f32], second: &[f32]) {
     crate::simd_dispatch::dispatch!(
         baseline,
-        (dst: &mut [u32], first: &[f32], second: &[f32]),
+        (dst: &mut [MaybeUninit<u32>], first: &[f32], second: &[f32]),
         for ((d, a), b) in dst.iter_mut().zip(first).zip(second) {
-            *d = to_bf16(*a) as u32 | (to_bf16(*b) as u32) << 16;
+            d.write(to_bf16(*a) as u32 | (to_bf16(*b) as u32) << 16);
         }
     )
 }
