@@ -101,12 +101,12 @@ mod tests {
     /// the input, every weight and every bias stay close to the f32 path's, and differ
     /// from them (the bf16 path ran). Hidden layers of 256 rows x 128 and 256 wide take
     /// bf16 operands, the 4-wide output layer stays f32. Close: the output within 1 %
-    /// (RMS of the difference over RMS of the f32 values), the gradients within 10 %: the
-    /// same network in NumPy, products of bf16-rounded operands summed in f64 against f64
-    /// products, differs by 0.17 % in its output and by 4-5 % in the gradients of its
-    /// first two layers (the rounding of each operand, 2^-9, compounds over two
-    /// backward products); a wrongly wired product (a transposed operand, a wrong
-    /// dimension) is off by about 100 %.
+    /// (RMS of the difference over RMS of the f32 values), the gradients within 10 %: a
+    /// network of the same shapes in NumPy (its own random weights and inputs), products
+    /// of bf16-rounded operands summed in f64 against f64 products, differed by 0.17 % in
+    /// its output and by 4-5 % in the gradients of its first two layers (the rounding of
+    /// each operand, 2^-9, compounds over two backward products); a wrongly wired
+    /// product (a transposed operand, a wrong dimension) gives an unrelated matrix.
     #[test]
     fn bf16_products_stay_close_to_the_f32_path() {
         use crate::bf16_products::{Products, with_products};
