@@ -108,20 +108,17 @@ pub(crate) unsafe fn new_product_as_set(
     }
 }
 
-/// f32 -> bf16, rounded to nearest even; NaN stays a (quiet) NaN of its sign.
+/// f32 -> bf16 bits, rounded to nearest even; NaN stays a (quiet) NaN of its sign
+/// (the `half` crate's conversion).
 #[inline(always)]
-pub fn to_bf16(x: f32) -> u16 {
-    let b = x.to_bits();
-    if x.is_nan() {
-        return ((b >> 16) as u16) | 0x0040;
-    }
-    (b.wrapping_add(0x7fff + ((b >> 16) & 1)) >> 16) as u16
+fn to_bf16(x: f32) -> u16 {
+    half::bf16::from_f32(x).to_bits()
 }
 
-/// bf16 -> f32 (exact).
+/// bf16 bits -> f32 (exact).
 #[inline(always)]
-pub fn from_bf16(x: u16) -> f32 {
-    f32::from_bits((x as u32) << 16)
+fn from_bf16(x: u16) -> f32 {
+    half::bf16::from_bits(x).to_f32()
 }
 
 /// A new [m, n] row-major buffer holding lhs [m, k] x rhs [k, n] with both operands

@@ -27,8 +27,6 @@ pub(crate) fn transposed_copy(src: &[f32], rows: usize, cols: usize) -> Vec<f32>
     dst
 }
 
-/// The elements of rows `r0..` and columns `c0..` not covered by whole 8 x 8 blocks below
-/// (r0, c0: where those blocks end), or everything with r0 = c0 = 0: one at a time.
 /// [`transposed_copy`] of 32-bit patterns (`bf16_products.rs`: pairs of bf16): the same
 /// moves, so the same bits.
 pub(crate) fn transposed_copy_u32(src: &[u32], rows: usize, cols: usize) -> Vec<u32> {
@@ -40,6 +38,8 @@ pub(crate) fn transposed_copy_u32(src: &[u32], rows: usize, cols: usize) -> Vec<
     unsafe { Vec::from_raw_parts(t.as_ptr() as *mut u32, t.len(), t.capacity()) }
 }
 
+/// The elements of rows `r0..` and columns `c0..` not covered by whole 8 x 8 blocks below
+/// (r0, c0: where those blocks end), or everything with r0 = c0 = 0: one at a time.
 fn transpose_rest(src: &[f32], rows: usize, cols: usize, dst: &mut [f32], r0: usize, c0: usize) {
     for r in 0..rows {
         let from = if r < r0 { c0 } else { 0 };

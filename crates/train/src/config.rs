@@ -68,8 +68,9 @@ pub struct TrainConfig {
     /// whose dimensions are all at least 32 (the dense layers' hidden products; output
     /// layers stay f32). On CPUs with AMX (Intel Sapphire Rapids and later) they run on
     /// its tiles, about three times as fast; elsewhere gemm multiplies the rounded
-    /// operands, slower than f32. Part of the result. Weights, optimiser and predictions stay f32 (model's
-    /// `bf16_products.rs`; docs/performance.md, "bf16 products on AMX tiles").
+    /// operands, slower than f32. Part of the result. Weights, optimiser and predictions
+    /// stay f32 (model's `bf16_products.rs`; docs/performance.md, "bf16 products on AMX
+    /// tiles").
     // Written only when not f32: records of runs made before it existed hold.
     #[serde(skip_serializing_if = "is_f32")]
     #[arg(long, default_value_t = TrainConfig::default().products)]
