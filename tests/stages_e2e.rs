@@ -208,11 +208,11 @@ fn refinement_removes_label_noise_on_the_tiny_scene() {
     );
     assert!(printed.contains("reduction"), "{printed}");
     // The numbers, recomputed here from the written tables.
-    let exact = labels::ablation::ExactLabels::read(&exact).unwrap();
+    let exact = labels::label_error::ExactLabels::read(&exact).unwrap();
     let before = labels::LabelTables::read(&p.labels).unwrap();
     let after = labels::LabelTables::read(&refined).unwrap();
-    let rows = labels::ablation::compare(&exact, &before, &after).unwrap();
-    print!("{}", labels::ablation::table(&rows));
+    let rows = labels::label_error::compare(&exact, &before, &after).unwrap();
+    print!("{}", labels::label_error::table(&rows));
     for r in &rows {
         // The noise is really there before refinement (5 cm RMS in 3D: median ~4.4 cm).
         assert!(

@@ -2,7 +2,9 @@
 //! `commands/<name>.rs`, parses its arguments and calls one library function.
 
 mod commands;
-mod out;
+// `crate::outln!` / `crate::out!`: stdout that survives a closed pipe (crates/stage/src/out.rs).
+#[allow(unused_imports)]
+pub(crate) use stage::{out, outln};
 
 use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 
@@ -63,7 +65,7 @@ enum Command {
     Checkpoint(commands::checkpoint::Command),
     /// Benchmarks that print a table (never run as tests).
     #[command(subcommand)]
-    Bench(commands::bench::Command),
+    Bench(bench::cli::Command),
 }
 
 fn main() -> std::process::ExitCode {
@@ -97,7 +99,7 @@ fn main() -> std::process::ExitCode {
         Command::Features(a) => commands::features::run(a),
         Command::Pose(a) => commands::pose::run(a),
         Command::Checkpoint(c) => commands::checkpoint::run(c),
-        Command::Bench(c) => commands::bench::run(c),
+        Command::Bench(c) => bench::cli::run(c),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

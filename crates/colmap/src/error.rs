@@ -212,12 +212,8 @@ pub enum Problem {
 /// Errors of this crate.
 #[derive(Debug, Error)]
 pub enum ColmapError {
-    #[error("{}: {source}", path.display())]
-    Io {
-        path: PathBuf,
-        #[source]
-        source: std::io::Error,
-    },
+    #[error(transparent)]
+    Io(#[from] fileio::IoError),
     #[error(
         "{}: no COLMAP model (need cameras, images and points3D, all .bin or all .txt)",
         dir.display()
@@ -250,13 +246,6 @@ impl ColmapError {
         match self {
             ColmapError::Parse { at, .. } | ColmapError::Invalid { at, .. } => Some(at),
             _ => None,
-        }
-    }
-
-    pub(crate) fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
-        ColmapError::Io {
-            path: path.into(),
-            source,
         }
     }
 }

@@ -10,6 +10,7 @@ use crate::binary;
 use crate::error::{ColmapError, Table};
 use crate::model::Reconstruction;
 use crate::text::{self, TextFiles};
+use fileio::{IoError, IoResultExt};
 use std::fs;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
@@ -68,14 +69,14 @@ pub fn read(dir: &Path) -> crate::Result<Reconstruction> {
 }
 
 fn load(path: &Path) -> crate::Result<Vec<u8>> {
-    fs::read(path).map_err(|e| ColmapError::io(path, e))
+    Ok(fs::read(path).at(path)?)
 }
 
 fn load_optional(path: &Path) -> crate::Result<Option<Vec<u8>>> {
     match fs::read(path) {
         Ok(b) => Ok(Some(b)),
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(None),
-        Err(e) => Err(ColmapError::io(path, e)),
+        Err(e) => Err(IoError::new(path, e).into()),
     }
 }
 
@@ -88,7 +89,7 @@ pub fn read_binary(dir: &Path) -> crate::Result<Reconstruction> {
             let path = p(Table::Points3D);
             binary::parse_points3d(&path, &load(&path)?)
         });
-        let small = (|| {
+        let small = (|| -> crate::Result<_> {
             let path = p(Table::Cameras);
             let cameras = binary::parse_cameras(&path, &load(&path)?)?;
             let path = p(Table::Rigs);
@@ -149,7 +150,7 @@ pub fn write_text(rec: &Reconstruction, dir: &Path) -> crate::Result<()> {
 
 /// Writes all five files (creating `dir` if needed).
 pub fn write(rec: &Reconstruction, dir: &Path, format: Format) -> crate::Result<()> {
-    fs::create_dir_all(dir).map_err(|e| ColmapError::io(dir, e))?;
+    fs::create_dir_all(dir).at(dir)?;
     let mut temps: Vec<(PathBuf, PathBuf)> = Vec::with_capacity(ALL.len());
     let result = (|| {
         for table in ALL {
@@ -164,7 +165,7 @@ pub fn write(rec: &Reconstruction, dir: &Path, format: Format) -> crate::Result<
             write_one(rec, table, format, &temp, &target)?;
         }
         for (temp, target) in &temps {
-            fs::rename(temp, target).map_err(|e| ColmapError::io(target, e))?;
+            fs::rename(temp, target).at(target)?;
         }
         Ok(())
     })();
@@ -183,7 +184,7 @@ fn write_one(
     temp: &Path,
     target: &Path,
 ) -> crate::Result<()> {
-    let file = fs::File::create(temp).map_err(|e| ColmapError::io(temp, e))?;
+    let file = fs::File::create(temp).at(temp)?;
     let mut w = BufWriter::with_capacity(1 << 20, file);
     // Errors name the final file: that is the one the user asked for.
     match (format, table) {
@@ -198,10 +199,8 @@ fn write_one(
         (Format::Text, Table::Rigs) => text::write_rigs(target, &mut w, rec),
         (Format::Text, Table::Frames) => text::write_frames(target, &mut w, rec),
     }?;
-    let file = w
-        .into_inner()
-        .map_err(|e| ColmapError::io(target, e.into_error()))?;
-    file.sync_all().map_err(|e| ColmapError::io(target, e))?;
+    let file = w.into_inner().map_err(|e| e.into_error()).at(target)?;
+    file.sync_all().at(target)?;
     Ok(())
 }
 

@@ -16,8 +16,8 @@
 //! in use and, unless told not to, compares the frames it found per split with the
 //! scene's counts ([`Descriptor::check_counts`]).
 
-use crate::ingest::DatasetKind;
-use crate::ingest::camera_spec;
+use crate::camera_spec;
+use crate::dataset_kind::DatasetKind;
 use geometry::{Camera, Matrix3, Pose, Vector3};
 use serde::{Deserialize, Deserializer, Serialize};
 use std::collections::BTreeMap;
@@ -44,12 +44,9 @@ pub const BUILTIN_NAMES: [&str; 3] = [BUILTIN[0].0, BUILTIN[1].0, BUILTIN[2].0];
 
 #[derive(Debug, Error)]
 pub enum DescriptorError {
-    #[error("dataset descriptor {path}: {source}")]
-    Io {
-        path: PathBuf,
-        #[source]
-        source: std::io::Error,
-    },
+    /// Displays as `dataset descriptor <path>: <error>`.
+    #[error("dataset descriptor {0}")]
+    Io(#[from] fileio::IoError),
     /// Not TOML, an unknown or missing key, or a value that is not valid (the message
     /// has the line, the column and the key).
     #[error("dataset descriptor {origin}: {message}")]
@@ -339,10 +336,7 @@ impl Descriptor {
 
     /// Reads a descriptor file of the user's own.
     pub fn from_file(path: &Path) -> Result<Descriptor> {
-        let text = std::fs::read_to_string(path).map_err(|source| DescriptorError::Io {
-            path: path.to_path_buf(),
-            source,
-        })?;
+        let text = std::fs::read_to_string(path).map_err(fileio::io_err(path))?;
         Descriptor::parse(&text, Origin::File(path.to_path_buf()))
     }
 
@@ -640,6 +634,11 @@ segment_scale = 1.0
         );
         let e =
             Descriptor::resolve(Some("/nonexistent/x.toml"), DatasetKind::Cambridge).unwrap_err();
-        assert!(matches!(e, DescriptorError::Io { .. }), "{e}");
+        assert!(matches!(e, DescriptorError::Io(_)), "{e}");
+        assert!(
+            e.to_string()
+                .starts_with("dataset descriptor /nonexistent/x.toml: "),
+            "{e}"
+        );
     }
 }

@@ -6,6 +6,7 @@ use datasets::descriptor::{
     BUILTIN_NAMES, CountMismatch, Descriptor, DescriptorError, SplitCounts,
 };
 use datasets::ingest::{self, DatasetKind, DepthOption, IngestConfig, IngestError, PoseOption};
+use datasets::ingest_stage;
 use geometry::CameraModel;
 use std::path::{Path, PathBuf};
 use tables::frames::Split;
@@ -214,7 +215,7 @@ fn sample_stairs_reads_with_the_check_off_and_is_refused_with_it_on() {
 
     // On (the default): the 12 frames are not the 2000 + 1000 of stairs.
     let out = tempfile::tempdir().unwrap();
-    let e = ingest::run(
+    let e = ingest_stage::run(
         &IngestConfig::new(DatasetKind::SevenScenes, &scene),
         out.path(),
     )
@@ -240,7 +241,7 @@ fn sample_stairs_reads_with_the_check_off_and_is_refused_with_it_on() {
     ] {
         assert!(message.contains(want), "{want}: {message}");
     }
-    assert!(!out.path().join(ingest::FRAMES_FILE).exists());
+    assert!(!out.path().join(ingest_stage::FRAMES_FILE).exists());
 
     // The same scene named by --scene inside the dataset folder.
     let mut c = IngestConfig::new(DatasetKind::SevenScenes, scene.parent().unwrap());
@@ -320,7 +321,7 @@ fn a_descriptor_of_ones_own_is_checked_and_hashed() {
     let mut c = fixture_config(&scene);
     c.descriptor = Some(good.to_str().unwrap().into());
     let out = dir.path().join("out");
-    ingest::run(&c, &out).unwrap();
+    ingest_stage::run(&c, &out).unwrap();
     // The file is an input of the stage: its content is in the record.
     let rec: serde_json::Value =
         serde_json::from_slice(&std::fs::read(out.join("stage.json")).unwrap()).unwrap();
@@ -367,7 +368,7 @@ fn scenes_without_counts_are_read() {
         let mut c = c.clone();
         c.depth = depth;
         c.poses = poses;
-        let e = ingest::run(&c, &dir.path().join("out")).unwrap_err();
+        let e = ingest_stage::run(&c, &dir.path().join("out")).unwrap_err();
         assert!(
             matches!(e, IngestError::Descriptor(DescriptorError::Missing { .. })),
             "{e}"
@@ -390,7 +391,7 @@ fn neither_key_changes_the_stage_record_or_the_table() {
     let scene = seven_scenes_fixture(dir.path(), "stairs");
     let run = |c: &IngestConfig, name: &str| {
         let out = dir.path().join(name);
-        let o = ingest::run(c, &out).unwrap();
+        let o = ingest_stage::run(c, &out).unwrap();
         let rec: serde_json::Value =
             serde_json::from_slice(&std::fs::read(out.join("stage.json")).unwrap()).unwrap();
         (
@@ -407,6 +408,6 @@ fn neither_key_changes_the_stage_record_or_the_table() {
     // A rerun with the check on (and the counts still wrong) is refused, not skipped.
     let mut on = plain.clone();
     on.count_check = true;
-    let e = ingest::run(&on, &dir.path().join("a")).unwrap_err();
+    let e = ingest_stage::run(&on, &dir.path().join("a")).unwrap_err();
     assert!(matches!(e, IngestError::FrameCounts(_)), "{e}");
 }

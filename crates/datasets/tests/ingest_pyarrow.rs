@@ -1,7 +1,8 @@
 //! Interop: the frames table read by an independent parquet reader (pyarrow). Needs
 //! `PL2MAP_PYTHON` pointing at a python with pyarrow; skipped with a reason otherwise.
 
-use datasets::ingest::{self, DatasetKind, DepthOption, IngestConfig};
+use datasets::ingest::{DatasetKind, DepthOption, IngestConfig};
+use datasets::ingest_stage;
 use std::process::Command;
 use tables::frames::{FramesTable, META_KEY};
 use testkit::layouts::seven_scenes;
@@ -58,7 +59,9 @@ fn pyarrow_reads_the_frames_table() {
     let mut c = IngestConfig::new(DatasetKind::SevenScenes, &scene);
     c.camera = Some("SIMPLE_RADIAL 16 12 10.25 8 6 -0.0123".into());
     c.depth = DepthOption::Raw;
-    let out = ingest::run(&c, &dir.path().join("out")).unwrap().output;
+    let out = ingest_stage::run(&c, &dir.path().join("out"))
+        .unwrap()
+        .output;
     let stdout = testkit::python::run(
         Command::new(&python)
             .args(["-c", SCRIPT])

@@ -5,6 +5,7 @@ use datasets::descriptor::{Descriptor, SevenScenesLayout};
 use datasets::ingest::{
     self, DatasetKind, DepthOption, IngestConfig, IngestError, PoseOption, depth,
 };
+use datasets::ingest_stage;
 use geometry::{GeometryError, Pose};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -194,7 +195,7 @@ fn sample_table_rows_and_registered_depth() {
     let out = tempfile::tempdir().unwrap();
     let mut config = sample_config(&scene);
     config.depth = DepthOption::Raw;
-    let result = ingest::run(&config, out.path()).unwrap();
+    let result = ingest_stage::run(&config, out.path()).unwrap();
     assert!(!result.skipped);
     let t = &result.output.table;
     assert_eq!((t.count(Split::Train), t.count(Split::Test)), (6, 6));
@@ -584,7 +585,7 @@ fn sample_calibrated_depth_points_land_consistently() {
     let mut config = sample_config(&scene);
     config.depth = DepthOption::Raw;
     config.poses = PoseOption::Calibrated;
-    let t = ingest::run(&config, out.path()).unwrap().output.table;
+    let t = ingest_stage::run(&config, out.path()).unwrap().output.table;
     let published = ingest::read_dataset(&sample_config(&scene), None).unwrap();
     let f = &t.frames[0];
     let reg = depth::read_depth_png(f.depth_path.as_ref().unwrap()).unwrap();

@@ -1,7 +1,8 @@
 //! The ingest stage folder: skipped reruns, reruns on any change, identical bytes for any
 //! thread count.
 
-use datasets::ingest::{self, DatasetKind, DepthOption, IngestConfig, PoseOption};
+use datasets::ingest::{DatasetKind, DepthOption, IngestConfig, PoseOption};
+use datasets::ingest_stage;
 use std::path::Path;
 use tables::frames::FramesTable;
 use testkit::layouts::{fixture_pose, pose_txt, seven_scenes};
@@ -24,7 +25,7 @@ fn rerun_is_skipped_until_something_changes() {
     let out = dir.path().join("work/ingest");
     let c = config(&scene);
 
-    let first = ingest::run(&c, &out).unwrap();
+    let first = ingest_stage::run(&c, &out).unwrap();
     assert!(!first.skipped);
     let rec = record(&out);
     assert_eq!(rec["stage"], "ingest");
@@ -37,20 +38,20 @@ fn rerun_is_skipped_until_something_changes() {
     keys.sort_unstable();
     assert_eq!(keys, ["depth", "images", "poses", "splits"]);
 
-    let second = ingest::run(&c, &out).unwrap();
+    let second = ingest_stage::run(&c, &out).unwrap();
     assert!(second.skipped);
     assert_eq!(second.output.table, first.output.table);
 
     // Another configuration reruns.
     let mut c2 = c.clone();
     c2.poses = PoseOption::Calibrated;
-    assert!(!ingest::run(&c2, &out).unwrap().skipped);
-    assert!(ingest::run(&c2, &out).unwrap().skipped);
+    assert!(!ingest_stage::run(&c2, &out).unwrap().skipped);
+    assert!(ingest_stage::run(&c2, &out).unwrap().skipped);
 
     // Changed input content (same size, same name) reruns.
     let pose = scene.join("seq-01/frame-000000.pose.txt");
     std::fs::write(&pose, pose_txt(&fixture_pose(7).inverse().to_matrix())).unwrap();
-    let third = ingest::run(&c2, &out).unwrap();
+    let third = ingest_stage::run(&c2, &out).unwrap();
     assert!(!third.skipped);
     assert_ne!(
         third.output.table.frames[0].pose,
@@ -60,36 +61,36 @@ fn rerun_is_skipped_until_something_changes() {
     // A modified or deleted output reruns, and restores it.
     let parquet = out.join("frames.parquet");
     std::fs::write(&parquet, b"tampered").unwrap();
-    assert!(!ingest::run(&c2, &out).unwrap().skipped);
+    assert!(!ingest_stage::run(&c2, &out).unwrap().skipped);
     assert!(FramesTable::read_parquet(&parquet).is_ok());
     std::fs::remove_file(out.join("depth/seq-01/frame-000001.depth.png")).unwrap();
-    assert!(!ingest::run(&c2, &out).unwrap().skipped);
+    assert!(!ingest_stage::run(&c2, &out).unwrap().skipped);
     assert!(out.join("depth/seq-01/frame-000001.depth.png").is_file());
 
     // Without depth, the registered depth of the earlier run is removed.
     let mut c3 = c2.clone();
     c3.depth = DepthOption::None;
-    let t = ingest::run(&c3, &out).unwrap().output.table;
+    let t = ingest_stage::run(&c3, &out).unwrap().output.table;
     assert!(t.frames.iter().all(|f| f.depth_path.is_none()));
     assert!(!out.join("depth").exists());
     assert_eq!(record(&out)["outputs"].as_object().unwrap().len(), 1);
 
     // A run that fails while listing the inputs leaves the folder as it was.
     std::fs::remove_file(scene.join("TestSplit.txt")).unwrap();
-    assert!(ingest::run(&c3, &out).is_err());
+    assert!(ingest_stage::run(&c3, &out).is_err());
     std::fs::write(scene.join("TestSplit.txt"), "sequence2\r\n\r\n").unwrap();
     assert!(
-        ingest::run(&c3, &out).unwrap().skipped,
+        ingest_stage::run(&c3, &out).unwrap().skipped,
         "inputs unchanged: still up to date"
     );
 
     // A run that fails while reading a frame leaves no record: the next run cannot skip.
     let good = std::fs::read(&pose).unwrap();
     std::fs::write(&pose, "1 0 0 0\n0 1 0 0\n0 0 1 0\n0 0 0 2\n").unwrap();
-    assert!(ingest::run(&c3, &out).is_err());
+    assert!(ingest_stage::run(&c3, &out).is_err());
     assert!(!out.join("stage.json").exists());
     std::fs::write(&pose, good).unwrap();
-    assert!(!ingest::run(&c3, &out).unwrap().skipped);
+    assert!(!ingest_stage::run(&c3, &out).unwrap().skipped);
 }
 
 #[test]
@@ -109,7 +110,9 @@ fn same_bytes_for_any_thread_count() {
         if out.exists() {
             std::fs::remove_dir_all(&out).unwrap();
         }
-        testkit::on_threads(threads, || assert!(!ingest::run(&c, &out).unwrap().skipped));
+        testkit::on_threads(threads, || {
+            assert!(!ingest_stage::run(&c, &out).unwrap().skipped)
+        });
         files
             .iter()
             .map(|f| std::fs::read(out.join(f)).unwrap())

@@ -1,6 +1,7 @@
 use crate::error::FeatureError;
-use crate::frontend::{FrontEndKind, SuperPointConfig};
+use crate::kind::FrontEndKind;
 use serde::{Deserialize, Serialize};
+use std::path::PathBuf;
 
 /// SIFT detection (OpenCV's parameters) and the top-K cut.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -97,6 +98,67 @@ impl Default for LsdConfig {
             min_length: 15.0,
             max_lines: 3000,
         }
+    }
+}
+
+/// The environment variable naming the SuperPoint weights file when neither the
+/// configuration nor a flag does.
+pub const SUPERPOINT_WEIGHTS_ENV: &str = "PL2MAP_SUPERPOINT_WEIGHTS";
+
+/// SuperPoint's settings (docs/method.md section 2b). Plain data: the network is in the
+/// `superpoint` crate.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct SuperPointConfig {
+    /// The released state-dict file (`superpoint_v1.pth`), supplied by the user. None:
+    /// the `PL2MAP_SUPERPOINT_WEIGHTS` environment variable.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub weights: Option<PathBuf>,
+    /// sha256 of the weights file the front-end was built with. Filled by the trainer
+    /// and stored in every checkpoint; a front-end built from a checkpoint refuses a
+    /// weights file with another hash.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub weights_sha256: Option<String>,
+    /// Non-maximum suppression radius in pixels (a max-pool of size 2r + 1).
+    pub nms_radius: usize,
+    /// Scores at or below this are not keypoints.
+    pub detection_threshold: f32,
+    /// Keypoints closer than this to the image border (pixels) are dropped.
+    pub remove_borders: usize,
+    /// Keep the K strongest keypoints (the query's top-K).
+    pub max_keypoints: usize,
+    /// Resize so that the longer side is at most this many pixels (area interpolation)
+    /// before the network; 0: never. Keypoints and given positions are mapped between
+    /// the original and the resized image.
+    pub resize_max: usize,
+}
+
+impl Default for SuperPointConfig {
+    fn default() -> Self {
+        SuperPointConfig {
+            weights: None,
+            weights_sha256: None,
+            nms_radius: 3,
+            detection_threshold: 0.005,
+            remove_borders: 4,
+            max_keypoints: 2048,
+            resize_max: 1024,
+        }
+    }
+}
+
+impl SuperPointConfig {
+    pub fn is_default(&self) -> bool {
+        *self == SuperPointConfig::default()
+    }
+
+    /// The weights file: the configured one, else `PL2MAP_SUPERPOINT_WEIGHTS`.
+    pub fn weights_path(&self) -> Option<PathBuf> {
+        self.weights.clone().or_else(|| {
+            std::env::var_os(SUPERPOINT_WEIGHTS_ENV)
+                .filter(|v| !v.is_empty())
+                .map(PathBuf::from)
+        })
     }
 }
 

@@ -4,6 +4,7 @@
 //! +0.5. The conversion happens here and nowhere else.
 
 use crate::error::{CvContext, FeatureError};
+use fileio::IoResultExt;
 use image::{GrayImage, RgbImage};
 use opencv::boxed_ref::BoxedRef;
 use opencv::core::{CV_8UC1, Mat, MatTraitConst, MatTraitConstManual};
@@ -73,10 +74,9 @@ pub fn decode_gray(bytes: &[u8]) -> Result<GrayImage, FeatureError> {
 
 /// Reads an image file (PNG or JPEG) as 8-bit grey, as [`decode_gray`] does.
 pub fn load_gray(path: &Path) -> Result<GrayImage, FeatureError> {
-    let bytes = std::fs::read(path).map_err(|e| FeatureError::Image {
-        path: path.to_path_buf(),
-        reason: e.to_string(),
-    })?;
+    let bytes = std::fs::read(path)
+        .at(path)
+        .map_err(FeatureError::ReadImage)?;
     decode_gray(&bytes).map_err(|e| FeatureError::Image {
         path: path.to_path_buf(),
         reason: match e {
@@ -114,4 +114,20 @@ fn png_luma(r: u8, g: u8, b: u8) -> u8 {
         return r;
     }
     ((RC * r as u32 + GC * g as u32 + BC * b as u32) >> 15) as u8
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_unreadable_image_file_is_named() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("missing.png");
+        let e = load_gray(&path).unwrap_err();
+        assert!(matches!(e, FeatureError::ReadImage(_)), "{e:?}");
+        let text = e.to_string();
+        let expected = format!("{}: cannot read image: ", path.display());
+        assert!(text.starts_with(&expected), "{text}");
+    }
 }

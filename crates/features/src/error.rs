@@ -9,6 +9,10 @@ pub enum FeatureError {
         #[source]
         source: opencv::Error,
     },
+    /// An image file that cannot be read.
+    #[error("{}: cannot read image: {}", .0.path.display(), .0.source)]
+    ReadImage(fileio::IoError),
+    /// An image file whose bytes cannot be decoded.
     #[error("{path}: cannot read image: {reason}")]
     Image { path: PathBuf, reason: String },
     /// Image bytes that OpenCV's decoder refuses (the caller names the file or frame).

@@ -1,65 +1,13 @@
-//! Everything the network needs from one image, and the parallel batch driver.
+//! Extracting everything the network needs from one image ([`ImageFeatures`]) with SIFT
+//! and LSD, and the parallel batch driver.
 
 use crate::config::{DescriptorMethod, FrontEndConfig};
 use crate::dense::OrientedGradients;
 use crate::error::FeatureError;
+use crate::image_features::ImageFeatures;
 use crate::{SIFT_DIM, describe_lines, describe_points, detect_keypoints, detect_segments};
 use image::GrayImage;
 use rayon::prelude::*;
-
-/// Front-end output for one image, as plain row-major arrays (COLMAP pixels).
-#[derive(Clone, Debug, PartialEq, Default)]
-pub struct ImageFeatures {
-    /// N x 2.
-    pub keypoints: Vec<[f64; 2]>,
-    /// N x D.
-    pub descriptors: Vec<f32>,
-    /// M x 4: x1 y1 x2 y2.
-    pub segments: Vec<[f64; 4]>,
-    /// M x T x D.
-    pub line_descriptors: Vec<f32>,
-    /// T.
-    pub samples_per_line: usize,
-    /// D.
-    pub dim: usize,
-}
-
-impl ImageFeatures {
-    /// A front-end's detections with the segments and their T descriptors each.
-    pub fn from_detections(
-        det: crate::Detections,
-        segments: Vec<[f64; 4]>,
-        line_descriptors: Vec<f32>,
-        samples_per_line: usize,
-    ) -> Self {
-        ImageFeatures {
-            keypoints: det.keypoints,
-            descriptors: det.descriptors,
-            segments,
-            line_descriptors,
-            samples_per_line,
-            dim: det.dim,
-        }
-    }
-
-    pub fn num_keypoints(&self) -> usize {
-        self.keypoints.len()
-    }
-
-    pub fn num_segments(&self) -> usize {
-        self.segments.len()
-    }
-
-    pub fn descriptor(&self, i: usize) -> &[f32] {
-        &self.descriptors[i * self.dim..(i + 1) * self.dim]
-    }
-
-    /// The T descriptors of line `j`, T x D.
-    pub fn line_descriptor(&self, j: usize) -> &[f32] {
-        let n = self.samples_per_line * self.dim;
-        &self.line_descriptors[j * n..(j + 1) * n]
-    }
-}
 
 /// Detects and describes keypoints and lines of one image (the query path).
 ///

@@ -11,143 +11,16 @@
 //! [`SiftFrontEnd`] wraps the OpenCV SIFT + LSD functions of this crate unchanged: its
 //! outputs are byte for byte those of [`crate::extract`], [`crate::describe_points`]
 //! and [`crate::describe_lines`]. The SuperPoint front-end (a burn network) lives in the
-//! `superpoint` crate, which also builds a front-end of either kind from a
-//! [`FrontEndConfig`] (`superpoint::front_end`), so that this crate needs no burn.
+//! `superpoint` crate, and the `frontends` crate builds a front-end of either kind from a
+//! [`FrontEndConfig`] (`frontends::build`), so that this crate needs no burn.
 
 use crate::config::FrontEndConfig;
 use crate::error::FeatureError;
+use crate::image_features::{Detections, ImageFeatures};
+use crate::kind::FrontEndKind;
 use crate::{SIFT_DIM, describe_lines, describe_points, detect_keypoints, detect_segments};
 use image::GrayImage;
 use rayon::prelude::*;
-use serde::{Deserialize, Serialize};
-use std::path::PathBuf;
-
-/// Which detector and descriptor a front-end runs.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum FrontEndKind {
-    /// OpenCV SIFT keypoints, upright fixed-scale SIFT descriptors (D = 128), LSD lines.
-    #[default]
-    Sift,
-    /// SuperPoint keypoints and bilinearly sampled dense descriptors (D = 256), LSD lines
-    /// (docs/method.md section 2b).
-    Superpoint,
-}
-
-impl FrontEndKind {
-    pub fn name(self) -> &'static str {
-        match self {
-            FrontEndKind::Sift => "sift",
-            FrontEndKind::Superpoint => "superpoint",
-        }
-    }
-
-    /// The descriptor width of this kind.
-    pub fn dim(self) -> usize {
-        match self {
-            FrontEndKind::Sift => SIFT_DIM,
-            FrontEndKind::Superpoint => SUPERPOINT_DIM,
-        }
-    }
-
-    pub fn is_sift(&self) -> bool {
-        *self == FrontEndKind::Sift
-    }
-}
-
-impl std::fmt::Display for FrontEndKind {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(self.name())
-    }
-}
-
-impl std::str::FromStr for FrontEndKind {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        match s {
-            "sift" => Ok(FrontEndKind::Sift),
-            "superpoint" => Ok(FrontEndKind::Superpoint),
-            _ => Err(format!("expected sift or superpoint, got {s:?}")),
-        }
-    }
-}
-
-/// SuperPoint's descriptor width.
-pub const SUPERPOINT_DIM: usize = 256;
-
-/// The environment variable naming the SuperPoint weights file when neither the
-/// configuration nor a flag does.
-pub const SUPERPOINT_WEIGHTS_ENV: &str = "PL2MAP_SUPERPOINT_WEIGHTS";
-
-/// SuperPoint's settings (docs/method.md section 2b). Plain data: the network is in the
-/// `superpoint` crate.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct SuperPointConfig {
-    /// The released state-dict file (`superpoint_v1.pth`), supplied by the user. None:
-    /// the `PL2MAP_SUPERPOINT_WEIGHTS` environment variable.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub weights: Option<PathBuf>,
-    /// sha256 of the weights file the front-end was built with. Filled by the trainer
-    /// and stored in every checkpoint; a front-end built from a checkpoint refuses a
-    /// weights file with another hash.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub weights_sha256: Option<String>,
-    /// Non-maximum suppression radius in pixels (a max-pool of size 2r + 1).
-    pub nms_radius: usize,
-    /// Scores at or below this are not keypoints.
-    pub detection_threshold: f32,
-    /// Keypoints closer than this to the image border (pixels) are dropped.
-    pub remove_borders: usize,
-    /// Keep the K strongest keypoints (the query's top-K).
-    pub max_keypoints: usize,
-    /// Resize so that the longer side is at most this many pixels (area interpolation)
-    /// before the network; 0: never. Keypoints and given positions are mapped between
-    /// the original and the resized image.
-    pub resize_max: usize,
-}
-
-impl Default for SuperPointConfig {
-    fn default() -> Self {
-        SuperPointConfig {
-            weights: None,
-            weights_sha256: None,
-            nms_radius: 3,
-            detection_threshold: 0.005,
-            remove_borders: 4,
-            max_keypoints: 2048,
-            resize_max: 1024,
-        }
-    }
-}
-
-impl SuperPointConfig {
-    pub fn is_default(&self) -> bool {
-        *self == SuperPointConfig::default()
-    }
-
-    /// The weights file: the configured one, else `PL2MAP_SUPERPOINT_WEIGHTS`.
-    pub fn weights_path(&self) -> Option<PathBuf> {
-        self.weights.clone().or_else(|| {
-            std::env::var_os(SUPERPOINT_WEIGHTS_ENV)
-                .filter(|v| !v.is_empty())
-                .map(PathBuf::from)
-        })
-    }
-}
-
-/// Keypoints detected in one image, strongest first, with their descriptors.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct Detections {
-    /// N x 2, COLMAP pixels.
-    pub keypoints: Vec<[f64; 2]>,
-    /// N: the detector's score (SIFT response, SuperPoint probability).
-    pub scores: Vec<f32>,
-    /// N x D, rows L2-normalised.
-    pub descriptors: Vec<f32>,
-    /// D.
-    pub dim: usize,
-}
 
 /// Descriptors of given positions: (points N x D, line samples M x T x D).
 pub type Described = (Vec<f32>, Vec<f32>);
@@ -220,11 +93,11 @@ pub trait FrontEnd: Send + Sync {
 
     /// Everything the network needs from one image (the query path): detections,
     /// segments and their descriptors.
-    fn extract(&self, img: &GrayImage) -> Result<crate::ImageFeatures, FeatureError> {
+    fn extract(&self, img: &GrayImage) -> Result<ImageFeatures, FeatureError> {
         let det = self.detect(img)?;
         let segments = self.segments(img)?;
         let line_descriptors = self.describe_lines(img, &segments)?;
-        Ok(crate::ImageFeatures::from_detections(
+        Ok(ImageFeatures::from_detections(
             det,
             segments,
             line_descriptors,
@@ -233,10 +106,7 @@ pub trait FrontEnd: Send + Sync {
     }
 
     /// [`FrontEnd::extract`] over a batch, results in input order.
-    fn extract_batch(
-        &self,
-        images: &[&GrayImage],
-    ) -> Vec<Result<crate::ImageFeatures, FeatureError>> {
+    fn extract_batch(&self, images: &[&GrayImage]) -> Vec<Result<ImageFeatures, FeatureError>> {
         images.par_iter().map(|img| self.extract(img)).collect()
     }
 
@@ -308,7 +178,7 @@ impl FrontEnd for SiftFrontEnd {
         )
     }
 
-    fn extract(&self, img: &GrayImage) -> Result<crate::ImageFeatures, FeatureError> {
+    fn extract(&self, img: &GrayImage) -> Result<ImageFeatures, FeatureError> {
         crate::extract(img, &self.config)
     }
 }

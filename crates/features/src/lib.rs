@@ -22,26 +22,24 @@ mod dense;
 mod error;
 mod extract;
 mod frontend;
+mod image_features;
+mod kind;
 mod lines;
 mod lsd;
 mod resize;
 mod sift;
 
-pub mod bench;
-
 pub use config::{
-    DescriptorConfig, DescriptorMethod, FrontEndConfig, LsdConfig, LsdImplementation, SiftConfig,
+    DescriptorConfig, DescriptorMethod, FrontEndConfig, LsdConfig, LsdImplementation,
+    SUPERPOINT_WEIGHTS_ENV, SiftConfig, SuperPointConfig,
 };
 pub use convert::{decode_gray, gray_from_rgb, load_gray};
 pub use dense::{DenseMap, OrientedGradients};
 pub use error::FeatureError;
-pub use extract::{
-    ImageFeatures, describe_points_and_lines, extract, extract_batch, extract_per_call,
-};
-pub use frontend::{
-    Described, Detections, FrontEnd, FrontEndKind, LabelledImage, SUPERPOINT_DIM,
-    SUPERPOINT_WEIGHTS_ENV, SiftFrontEnd, SuperPointConfig,
-};
+pub use extract::{describe_points_and_lines, extract, extract_batch, extract_per_call};
+pub use frontend::{Described, FrontEnd, LabelledImage, SiftFrontEnd};
+pub use image_features::{Detections, ImageFeatures};
+pub use kind::{FrontEndKind, SUPERPOINT_DIM};
 pub use lines::{describe_lines, sample_points};
 pub use lsd::detect_segments;
 pub use resize::{gray_f32, resize_area};

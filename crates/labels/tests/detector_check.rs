@@ -6,12 +6,14 @@
 //! and COLMAP's own SIFT model of real photos (sample data) for another implementation of
 //! the configured detector. Every test prints the rates it measured.
 
-use datasets::ingest::{self, DatasetKind, IngestConfig};
+use datasets::ingest::{DatasetKind, IngestConfig};
+use datasets::ingest_stage;
 use features::{FrontEnd, FrontEndConfig, FrontEndKind, SiftFrontEnd};
 use labels::import::{
     self, DETECTED_RADIUS_PX, DetectorCheck, ImportConfig, ImportError, MATCH_RADIUS_PX,
     MIN_KEYPOINT_RATE, MIN_SEGMENT_RATE, PointLabels, matched_keypoints,
 };
+use labels::import_stage;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::path::{Path, PathBuf};
@@ -37,7 +39,7 @@ fn fixture() -> &'static Fixture {
             .unwrap();
         let synth = generate_tiny(&dir.path().join("data")).expect("synth");
         let ic = IngestConfig::new(DatasetKind::SevenScenes, &synth.root);
-        let frames = ingest::run(&ic, &dir.path().join("frames"))
+        let frames = ingest_stage::run(&ic, &dir.path().join("frames"))
             .expect("ingest")
             .output
             .frames_path;
@@ -145,7 +147,8 @@ fn limap_with(
 fn the_synthetic_sift_model_passes_under_sift() {
     let f = fixture();
     let out = tempfile::tempdir().unwrap();
-    let done = import::run(&config(f, None), &f.frames, out.path()).expect("import");
+    let done = import_stage::run(&config(f, None), &f.frames, out.path(), &import::sift_only)
+        .expect("import");
     let c = done
         .output
         .report
@@ -163,7 +166,7 @@ fn the_synthetic_sift_model_passes_under_sift() {
         "{}",
         c.rates()
     );
-    let json = std::fs::read_to_string(out.path().join(import::REPORT_FILE)).unwrap();
+    let json = std::fs::read_to_string(out.path().join(import_stage::REPORT_FILE)).unwrap();
     assert!(json.contains("\"detector_check\"") && json.contains("\"passed\""));
     assert!(
         done.output
@@ -177,7 +180,7 @@ fn the_synthetic_sift_model_passes_under_sift() {
 fn a_sift_model_under_superpoint_is_refused_with_the_rates_cause_and_fix() {
     let f = fixture();
     let out = tempfile::tempdir().unwrap();
-    let e = import::run_with(
+    let e = import_stage::run(
         &superpoint_config(f),
         &f.frames,
         out.path(),
@@ -209,7 +212,7 @@ fn a_sift_model_under_superpoint_is_refused_with_the_rates_cause_and_fix() {
     }
     assert!(!msg.contains("DeepLSD"), "{msg}");
     // Nothing written under a final name, no record.
-    assert!(!out.path().join(import::REPORT_FILE).exists());
+    assert!(!out.path().join(import_stage::REPORT_FILE).exists());
     assert!(!out.path().join("stage.json").exists());
 }
 
@@ -219,12 +222,12 @@ fn accept_imports_the_mismatch_and_the_report_keeps_it() {
     let out = tempfile::tempdir().unwrap();
     let mut c = superpoint_config(f);
     c.detector_check = DetectorCheck::Accept;
-    let done = import::run_with(&c, &f.frames, out.path(), &make_superpoint).expect("accepted");
+    let done = import_stage::run(&c, &f.frames, out.path(), &make_superpoint).expect("accepted");
     let r = &done.output.report;
     let check = r.detector_check.as_ref().expect("the check ran");
     assert_eq!(check.decision, "accepted");
     assert!(check.keypoint_rate < MIN_KEYPOINT_RATE);
-    let json = std::fs::read_to_string(out.path().join(import::REPORT_FILE)).unwrap();
+    let json = std::fs::read_to_string(out.path().join(import_stage::REPORT_FILE)).unwrap();
     assert!(json.contains("\"accepted\"") && json.contains("\"keypoint_rate\""));
     assert!(json.contains("\"detector_check\": \"accept\""), "{json}");
     assert!(r.table().contains("detector check (accepted)"));
@@ -238,9 +241,9 @@ fn off_runs_no_check_and_keeps_the_default_bytes() {
     let mut c = superpoint_config(f);
     c.detector_check = DetectorCheck::Off;
     // SuperPoint is never built: the plain run (SIFT only) is enough.
-    let done = import::run(&c, &f.frames, out.path()).expect("import");
+    let done = import_stage::run(&c, &f.frames, out.path(), &import::sift_only).expect("import");
     assert!(done.output.report.detector_check.is_none());
-    let json = std::fs::read_to_string(out.path().join(import::REPORT_FILE)).unwrap();
+    let json = std::fs::read_to_string(out.path().join(import_stage::REPORT_FILE)).unwrap();
     assert!(!json.contains("keypoint_rate"));
     // The defaults are left out of the serialised configuration (records and reports of
     // imports made before the check keep their bytes).
@@ -268,7 +271,13 @@ fn jittered_limap_segments_are_refused() {
             })
             .collect()
     });
-    let e = import::run(&config(f, Some(limap)), &f.frames, &out.path().join("out")).unwrap_err();
+    let e = import_stage::run(
+        &config(f, Some(limap)),
+        &f.frames,
+        &out.path().join("out"),
+        &import::sift_only,
+    )
+    .unwrap_err();
     let ImportError::DetectorMismatch { report } = &e else {
         panic!("expected a detector mismatch, got {e}");
     };
@@ -300,8 +309,13 @@ fn short_limap_segments_are_left_out_of_the_rate() {
             })
             .collect()
     });
-    let done =
-        import::run(&config(f, Some(limap)), &f.frames, &out.path().join("out")).expect("import");
+    let done = import_stage::run(
+        &config(f, Some(limap)),
+        &f.frames,
+        &out.path().join("out"),
+        &import::sift_only,
+    )
+    .expect("import");
     let c = done.output.report.detector_check.expect("the check ran");
     println!("half the LIMAP segments cut to 8 px: {}", c.rates());
     assert_eq!(c.decision, "passed");
@@ -349,7 +363,13 @@ fn limap_segments_of_another_detector_are_refused() {
             })
             .collect()
     });
-    let e = import::run(&config(f, Some(limap)), &f.frames, &out.path().join("out")).unwrap_err();
+    let e = import_stage::run(
+        &config(f, Some(limap)),
+        &f.frames,
+        &out.path().join("out"),
+        &import::sift_only,
+    )
+    .unwrap_err();
     let ImportError::DetectorMismatch { report } = &e else {
         panic!("expected a detector mismatch, got {e}");
     };
@@ -400,12 +420,13 @@ fn import_detected(
     what: &str,
 ) -> (
     tempfile::TempDir,
-    stage::Done<import::ImportOutput>,
+    stage::Done<import_stage::ImportOutput>,
     import::DetectedLabelsReport,
 ) {
     c.point_labels = PointLabels::Detected;
     let out = tempfile::tempdir().unwrap();
-    let done = import::run(&c, &fixture().frames, out.path()).expect("import");
+    let done =
+        import_stage::run(&c, &fixture().frames, out.path(), &import::sift_only).expect("import");
     let d = done.output.report.detected_labels.clone().expect("ran");
     println!("{what}: {}", d.line());
     (out, done, d)
@@ -418,7 +439,8 @@ fn import_detected(
 fn detected_point_labels_keep_the_front_end_s_own_keypoints_only() {
     let f = fixture();
     let all = tempfile::tempdir().unwrap();
-    let base = import::run(&config(f, None), &f.frames, all.path()).expect("import");
+    let base = import_stage::run(&config(f, None), &f.frames, all.path(), &import::sift_only)
+        .expect("import");
     let (keypoints, labelled) = (
         base.output.report.points.keypoints,
         base.output.report.points.valid,

@@ -3,6 +3,7 @@
 
 use geometry::{Vector2, Vector3};
 use labels::import::{self, ImportConfig, LineTrackSet};
+use labels::import_stage;
 use labels::{LabelTables, NameMapping, PoseSource};
 use std::collections::HashMap;
 use tables::frames::Split;
@@ -13,10 +14,15 @@ fn import(
     scene: &Scene,
     config: &ImportConfig,
     out: &str,
-) -> (stage::Done<import::ImportOutput>, LabelTables) {
+) -> (stage::Done<import_stage::ImportOutput>, LabelTables) {
     let out = scene.out(out);
-    let o = import::run(&scene.with_inputs(config), &scene.frames_path, &out)
-        .unwrap_or_else(|e| panic!("{e}"));
+    let o = import_stage::run(
+        &scene.with_inputs(config),
+        &scene.frames_path,
+        &out,
+        &import::sift_only,
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
     (o, LabelTables::read(&out).unwrap())
 }
 
@@ -174,10 +180,11 @@ fn explicit_name_mappings_join_renamed_models() {
     scene.write_model();
     scene.write_limap();
     // The identity mapping refuses: no guessing.
-    let e = import::run(
+    let e = import_stage::run(
         &scene.with_inputs(&ImportConfig::default()),
         &scene.frames_path,
         &scene.out("identity"),
+        &import::sift_only,
     )
     .unwrap_err();
     assert!(!e.problems().is_empty());
@@ -216,7 +223,7 @@ fn same_inputs_give_the_same_bytes_and_reruns_are_skipped() {
     assert_eq!(
         fa.keys().collect::<Vec<_>>(),
         [
-            // The folder's lock (stage::FolderLock), empty once released.
+            // The folder's guard (stage::FolderGuard), empty once released.
             ".pl2map.lock",
             "import_report.json",
             "lines.parquet",
@@ -336,10 +343,11 @@ fn alltracks_without_the_file_is_refused_naming_it() {
         line_tracks: LineTrackSet::Alltracks,
         ..Default::default()
     };
-    let e = import::run(
+    let e = import_stage::run(
         &scene.with_inputs(&config),
         &scene.frames_path,
         &scene.out("x"),
+        &import::sift_only,
     )
     .unwrap_err()
     .to_string();

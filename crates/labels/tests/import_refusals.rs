@@ -2,6 +2,7 @@
 
 use labels::NameMapping;
 use labels::import::{self, ImportConfig, ImportError, ImportProblem};
+use labels::import_stage;
 use tables::frames::{Frame, Split};
 use testkit::scene::{Scene, SceneOptions};
 
@@ -11,8 +12,13 @@ fn scene() -> Scene {
 
 fn refuse(scene: &Scene, config: &ImportConfig) -> ImportError {
     let out = scene.out("labels");
-    let e = import::run(&scene.with_inputs(config), &scene.frames_path, &out)
-        .expect_err("the import must refuse this input");
+    let e = import_stage::run(
+        &scene.with_inputs(config),
+        &scene.frames_path,
+        &out,
+        &import::sift_only,
+    )
+    .expect_err("the import must refuse this input");
     // Nothing is written for refused input.
     assert!(!out.join("stage.json").exists());
     assert!(!out.join("points.parquet").exists());
@@ -236,7 +242,13 @@ fn refuses_test_images_in_the_model_unless_allowed() {
         allow_test_images: true,
         ..Default::default()
     };
-    let out = import::run(&s.with_inputs(&allowed), &s.frames_path, &s.out("allowed")).unwrap();
+    let out = import_stage::run(
+        &s.with_inputs(&allowed),
+        &s.frames_path,
+        &s.out("allowed"),
+        &import::sift_only,
+    )
+    .unwrap();
     assert_eq!(out.output.report.model.test_images_skipped, 1);
 }
 
@@ -329,10 +341,11 @@ fn segments_just_past_the_border_import_by_default_and_name_lsds_overshoot_when_
     }
     s.write_limap();
     assert_eq!(ImportConfig::default().bounds_tolerance_px, 3.0);
-    import::run(
+    import_stage::run(
         &s.with_inputs(&ImportConfig::default()),
         &s.frames_path,
         &s.out("tolerated"),
+        &import::sift_only,
     )
     .unwrap();
     let tight = ImportConfig {

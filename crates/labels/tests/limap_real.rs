@@ -13,8 +13,10 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use datasets::ingest::{self, DatasetKind, IngestConfig};
+use datasets::ingest::{DatasetKind, IngestConfig};
+use datasets::ingest_stage;
 use labels::import::{self, DETECTED_RADIUS_PX, ImportConfig, LineTrackSet, PointLabels};
+use labels::import_stage;
 use limap::{Layout, LimapDir, LimapDirOptions, SegmentsOrigin};
 use serde_json::Value;
 use synth::generate_tiny;
@@ -143,7 +145,7 @@ fn limap2_output_of_the_real_tools_reads_unconverted() {
     // pycolmap's SIFT and LIMAP's LSD for the front-end's detectors; docs/formats.md
     // section 2): every support labels one segment, every observation one keypoint. The
     // rates are printed.
-    let frames = ingest::run(
+    let frames = ingest_stage::run(
         &IngestConfig::new(DatasetKind::SevenScenes, &synth.root),
         &dir.path().join("frames"),
     )
@@ -161,7 +163,13 @@ fn limap2_output_of_the_real_tools_reads_unconverted() {
             line_tracks: set,
             ..ImportConfig::default()
         };
-        let done = import::run(&config, &frames, &dir.path().join(set.as_str())).expect("import");
+        let done = import_stage::run(
+            &config,
+            &frames,
+            &dir.path().join(set.as_str()),
+            &import::sift_only,
+        )
+        .expect("import");
         let r = &done.output.report;
         assert_eq!(r.limap.tracks, tracks.len(), "{set:?}");
         assert_eq!(r.limap.tracks_used, tracks.len(), "{set:?}");
@@ -203,7 +211,13 @@ fn limap2_output_of_the_real_tools_reads_unconverted() {
         point_labels: PointLabels::Detected,
         ..ImportConfig::default()
     };
-    let done = import::run(&config, &frames, &dir.path().join("detected")).expect("import");
+    let done = import_stage::run(
+        &config,
+        &frames,
+        &dir.path().join("detected"),
+        &import::sift_only,
+    )
+    .expect("import");
     let d = done.output.report.detected_labels.clone().unwrap();
     eprintln!("{}; OpenCV (Python) and pycolmap count {counted}", d.line());
     assert_eq!(d.keypoints as u64, as_u64(&counted["keypoints"]));

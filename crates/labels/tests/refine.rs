@@ -3,7 +3,9 @@
 //! depend on the thread count.
 
 use labels::import::{self, ImportConfig};
-use labels::refine::{self, PointSampling, RefineConfig, RefineError};
+use labels::import_stage;
+use labels::refine::{PointSampling, RefineConfig, RefineError};
+use labels::refine_stage;
 use labels::{LabelTables, Spread};
 use testkit::files::folder_bytes;
 use testkit::scene::{Scene, SceneOptions};
@@ -18,10 +20,11 @@ fn noisy_scene() -> Scene {
 }
 
 fn import(scene: &Scene) -> LabelTables {
-    import::run(
+    import_stage::run(
         &scene.with_inputs(&ImportConfig::default()),
         &scene.frames_path,
         &scene.out("labels"),
+        &import::sift_only,
     )
     .unwrap();
     LabelTables::read(&scene.out("labels")).unwrap()
@@ -60,7 +63,7 @@ struct Ablation {
 
 fn ablation(scene: &Scene, config: &RefineConfig, out: &str) -> Ablation {
     let before = import(scene);
-    let o = refine::run(
+    let o = refine_stage::run(
         config,
         &scene.frames_path,
         &scene.out("labels"),
@@ -169,7 +172,7 @@ fn observations_without_valid_depth_lose_their_label() {
         }
     }
     depth.save(&path).unwrap();
-    let o = refine::run(
+    let o = refine_stage::run(
         &RefineConfig::default(),
         &scene.frames_path,
         &scene.out("labels"),
@@ -202,7 +205,7 @@ fn refuses_depth_maps_of_another_size() {
     image::ImageBuffer::<image::Luma<u16>, Vec<u16>>::from_pixel(320, 240, image::Luma([1000]))
         .save(f.depth_path.as_ref().unwrap())
         .unwrap();
-    let e = refine::run(
+    let e = refine_stage::run(
         &RefineConfig::default(),
         &scene.frames_path,
         &scene.out("labels"),
@@ -228,7 +231,7 @@ fn refuses_depth_maps_that_are_not_16_bit() {
     image::GrayImage::from_pixel(640, 480, image::Luma([7]))
         .save(f.depth_path.as_ref().unwrap())
         .unwrap();
-    let e = refine::run(
+    let e = refine_stage::run(
         &RefineConfig::default(),
         &scene.frames_path,
         &scene.out("labels"),
@@ -248,7 +251,7 @@ fn refuses_labels_of_another_frames_table_and_tables_without_depth() {
     import(&scene);
     scene.table.meta.scene = "another".into();
     scene.write_frames();
-    let e = refine::run(
+    let e = refine_stage::run(
         &RefineConfig::default(),
         &scene.frames_path,
         &scene.out("labels"),
@@ -270,7 +273,7 @@ fn refuses_labels_of_another_frames_table_and_tables_without_depth() {
     scene.table.meta.depth_source = "none".into();
     scene.write_frames();
     import(&scene);
-    let e = refine::run(
+    let e = refine_stage::run(
         &RefineConfig::default(),
         &scene.frames_path,
         &scene.out("labels"),
@@ -289,7 +292,7 @@ fn same_bytes_for_any_thread_count_and_reruns_are_skipped() {
     import(&scene);
     let run_with = |threads: usize, out: &str| {
         testkit::on_threads(threads, || {
-            refine::run(
+            refine_stage::run(
                 &RefineConfig::default(),
                 &scene.frames_path,
                 &scene.out("labels"),
@@ -396,7 +399,7 @@ fn observations_that_disagree_with_the_others_are_rejected() {
         .collect();
     paint_depth(&scene, bad.frame_id, &half, 3.0, 1000);
 
-    let o = refine::run(
+    let o = refine_stage::run(
         &RefineConfig::default(),
         &scene.frames_path,
         &scene.out("labels"),

@@ -1,6 +1,6 @@
 //! A LIMAP output folder (`cfg.output_dir` of line triangulation), in either layout:
 //! LIMAP 1.x (below) or LIMAP 2.0 (`final_model/`, see the `limap2` module). The layout is
-//! detected: `image_list.txt` makes a 1.x folder, `final_model/structures/` (or a path
+//! detected (`open.rs`): `image_list.txt` makes a 1.x folder, `final_model/structures/` (or a path
 //! that is `final_model/` itself) a 2.0 folder. LIMAP 1.x:
 //!
 //! ```text
@@ -16,6 +16,7 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
+use fileio::IoResultExt;
 use serde::Serialize;
 
 use crate::alltracks::{AlltracksLayout, select_for_alltracks};
@@ -112,125 +113,6 @@ pub struct InputFiles {
 }
 
 impl LimapDir {
-    /// Reads the folder and refuses it when any consistency check finds an error.
-    pub fn load(root: impl AsRef<Path>, options: &LimapDirOptions) -> Result<Self, LimapError> {
-        let dir = Self::open_unchecked(root, options)?;
-        let report = dir.check();
-        if report.is_ok() {
-            Ok(dir)
-        } else {
-            Err(LimapError::Inconsistent {
-                root: dir.root.clone(),
-                problems: report.errors().cloned().collect(),
-            })
-        }
-    }
-
-    /// Reads and parses every file, without the cross-file checks (see [`LimapDir::check`]).
-    /// A file that cannot be read or parsed is still an error.
-    pub fn open_unchecked(
-        root: impl AsRef<Path>,
-        options: &LimapDirOptions,
-    ) -> Result<Self, LimapError> {
-        let root = root.as_ref().to_path_buf();
-        if !root.is_dir() {
-            return Err(LimapError::NotADirectory { path: root });
-        }
-        if !root.join(IMAGE_LIST_FILE).exists() {
-            if let Some((output, model_dir)) = crate::limap2::locate(&root) {
-                return crate::limap2::open(output, model_dir, options);
-            }
-            return Err(LimapError::UnknownLayout { root });
-        }
-        let image_list = read_image_list(root.join(IMAGE_LIST_FILE))?;
-        let (segments_dir, segments_origin) = match &options.segments {
-            Some(p) => (p.clone(), SegmentsOrigin::Given),
-            None => (detect_segments_dir(&root)?, SegmentsOrigin::Detected),
-        };
-        let segments = read_segments_dir(&segments_dir)?;
-        let tracks_dir = root.join(
-            options
-                .tracks_folder
-                .as_deref()
-                .unwrap_or(Path::new(DEFAULT_TRACKS_FOLDER)),
-        );
-        let tracks = read_tracks_dir(&tracks_dir, options.allow_legacy_tracks)?;
-        let all_path = root.join(ALLTRACKS_FILE);
-        let alltracks = if all_path.exists() {
-            Some(read_alltracks(&all_path)?)
-        } else {
-            None
-        };
-        Ok(LimapDir {
-            root,
-            layout: Layout::Limap1,
-            model_dir: None,
-            image_list,
-            segments_dir,
-            segments_origin,
-            segments,
-            tracks_dir,
-            tracks,
-            line3d_ids: None,
-            alltracks,
-        })
-    }
-
-    /// The files the folder was read from, in three groups (the import hashes each):
-    /// `limap` (1.x: `image_list.txt` and `alltracks.txt`; 2.0: the model's files),
-    /// `limap_segments` (the `segments_<id>.txt` files, or `structures2d.bin`) and
-    /// `limap_tracks` (1.x: `track*.txt`; 2.0: `lines3D.bin` and `structures2d.bin`).
-    pub fn input_files(&self) -> Result<Vec<InputFiles>, LimapError> {
-        let s2d = crate::structures::STRUCTURES2D_FILE.to_string();
-        let (top_dir, top) = match (&self.layout, &self.model_dir) {
-            (Layout::Limap2, Some(model)) => (
-                model.clone(),
-                crate::limap2::MODEL_FILES
-                    .iter()
-                    .filter(|f| model.join(f).is_file())
-                    .map(|f| f.to_string())
-                    .collect(),
-            ),
-            _ => {
-                let mut top = vec![IMAGE_LIST_FILE.to_string()];
-                if self.root.join(ALLTRACKS_FILE).is_file() {
-                    top.push(ALLTRACKS_FILE.to_string());
-                }
-                (self.root.clone(), top)
-            }
-        };
-        let segments = if self.segments_origin == SegmentsOrigin::Structures {
-            vec![s2d.clone()]
-        } else {
-            sorted_files(&self.segments_dir, |n| {
-                n.starts_with("segments_") && n.ends_with(".txt")
-            })?
-        };
-        let tracks = match self.layout {
-            Layout::Limap1 => sorted_files(&self.tracks_dir, |n| {
-                n.starts_with("track") && n.ends_with(".txt")
-            })?,
-            Layout::Limap2 => vec![crate::structures::LINES3D_FILE.to_string(), s2d],
-        };
-        Ok(vec![
-            InputFiles {
-                name: "limap",
-                dir: top_dir,
-                files: top,
-            },
-            InputFiles {
-                name: "limap_segments",
-                dir: self.segments_dir.clone(),
-                files: segments,
-            },
-            InputFiles {
-                name: "limap_tracks",
-                dir: self.tracks_dir.clone(),
-                files: tracks,
-            },
-        ])
-    }
-
     /// Runs every consistency check.
     pub fn check(&self) -> CheckReport {
         check(
@@ -240,6 +122,46 @@ impl LimapDir {
             self.alltracks.as_deref(),
         )
     }
+}
+
+/// Reads a LIMAP 1.x folder (`root` holds `image_list.txt`), without the cross-file
+/// checks.
+pub(crate) fn open_limap1(
+    root: PathBuf,
+    options: &LimapDirOptions,
+) -> Result<LimapDir, LimapError> {
+    let image_list = read_image_list(root.join(IMAGE_LIST_FILE))?;
+    let (segments_dir, segments_origin) = match &options.segments {
+        Some(p) => (p.clone(), SegmentsOrigin::Given),
+        None => (detect_segments_dir(&root)?, SegmentsOrigin::Detected),
+    };
+    let segments = read_segments_dir(&segments_dir)?;
+    let tracks_dir = root.join(
+        options
+            .tracks_folder
+            .as_deref()
+            .unwrap_or(Path::new(DEFAULT_TRACKS_FOLDER)),
+    );
+    let tracks = read_tracks_dir(&tracks_dir, options.allow_legacy_tracks)?;
+    let all_path = root.join(ALLTRACKS_FILE);
+    let alltracks = if all_path.exists() {
+        Some(read_alltracks(&all_path)?)
+    } else {
+        None
+    };
+    Ok(LimapDir {
+        root,
+        layout: Layout::Limap1,
+        model_dir: None,
+        image_list,
+        segments_dir,
+        segments_origin,
+        segments,
+        tracks_dir,
+        tracks,
+        line3d_ids: None,
+        alltracks,
+    })
 }
 
 /// Segments folders that exist under a LIMAP folder: `line_detections/*/segments` and
@@ -280,17 +202,20 @@ fn detect_segments_dir(root: &Path) -> Result<PathBuf, LimapError> {
 }
 
 fn sorted_entries(dir: &Path) -> Result<Vec<PathBuf>, LimapError> {
-    let read = std::fs::read_dir(dir).map_err(|e| LimapError::io(dir, e))?;
+    let read = std::fs::read_dir(dir).at(dir)?;
     let mut out = Vec::new();
     for entry in read {
-        out.push(entry.map_err(|e| LimapError::io(dir, e))?.path());
+        out.push(entry.at(dir)?.path());
     }
     out.sort();
     Ok(out)
 }
 
 /// The names of the plain files of `dir` that `keep` accepts, sorted.
-fn sorted_files(dir: &Path, keep: impl Fn(&str) -> bool) -> Result<Vec<String>, LimapError> {
+pub(crate) fn sorted_files(
+    dir: &Path,
+    keep: impl Fn(&str) -> bool,
+) -> Result<Vec<String>, LimapError> {
     let mut out = Vec::new();
     for path in sorted_entries(dir)? {
         let name = file_name(&path);
@@ -415,7 +340,7 @@ pub fn write_limap_dir(
         ));
     }
     let seg_parent = root.join(LINE_DETECTIONS_FOLDER).join(detector);
-    std::fs::create_dir_all(&seg_parent).map_err(|e| LimapError::io(&seg_parent, e))?;
+    std::fs::create_dir_all(&seg_parent).at(&seg_parent)?;
     replace_dir(&seg_parent.join(SEGMENTS_FOLDER), |dir| {
         for (id, segs) in segments {
             write_segments(dir.join(segments_file_name(*id)), segs)?;
@@ -441,11 +366,10 @@ fn replace_dir(
     fill: impl FnOnce(&Path) -> Result<(), LimapError>,
 ) -> Result<(), LimapError> {
     let staging = temp_sibling(target);
-    let io = |p: &Path, e| LimapError::io(p, e);
     if staging.exists() {
-        std::fs::remove_dir_all(&staging).map_err(|e| io(&staging, e))?;
+        std::fs::remove_dir_all(&staging).at(&staging)?;
     }
-    std::fs::create_dir_all(&staging).map_err(|e| io(&staging, e))?;
+    std::fs::create_dir_all(&staging).at(&staging)?;
     if let Err(e) = fill(&staging) {
         let _ = std::fs::remove_dir_all(&staging);
         return Err(e);
@@ -454,11 +378,11 @@ fn replace_dir(
         let mut old = staging.clone().into_os_string();
         old.push(".old");
         let old = PathBuf::from(old);
-        std::fs::rename(target, &old).map_err(|e| io(target, e))?;
-        std::fs::rename(&staging, target).map_err(|e| io(target, e))?;
-        std::fs::remove_dir_all(&old).map_err(|e| io(&old, e))?;
+        std::fs::rename(target, &old).at(target)?;
+        std::fs::rename(&staging, target).at(target)?;
+        std::fs::remove_dir_all(&old).at(&old)?;
     } else {
-        std::fs::rename(&staging, target).map_err(|e| io(target, e))?;
+        std::fs::rename(&staging, target).at(target)?;
     }
     Ok(())
 }

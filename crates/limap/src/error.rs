@@ -7,8 +7,7 @@ use std::path::PathBuf;
 
 use thiserror::Error;
 
-use crate::check::Problem;
-use crate::structures::BinaryError;
+use crate::problem::Problem;
 
 /// A malformed LIMAP text file: where (1-based line and byte column) and what was expected.
 #[derive(Debug, Clone, PartialEq, Eq, Error)]
@@ -21,15 +20,22 @@ pub struct ParseError {
     pub found: String,
 }
 
+/// A malformed binary structure file: the byte offset of the value that could not be
+/// read, the record it belongs to and what was expected.
+#[derive(Debug, Clone, PartialEq, Eq, Error)]
+#[error("byte {offset}{}: {problem}", record.as_ref().map(|r| format!(", {r}")).unwrap_or_default())]
+pub struct BinaryError {
+    pub offset: usize,
+    /// The record, e.g. `record 3 (image 12)`; `None` for the header.
+    pub record: Option<String>,
+    pub problem: String,
+}
+
 /// Everything that can go wrong reading, checking or writing LIMAP outputs.
 #[derive(Debug, Error)]
 pub enum LimapError {
-    #[error("{}: {source}", path.display())]
-    Io {
-        path: PathBuf,
-        #[source]
-        source: std::io::Error,
-    },
+    #[error(transparent)]
+    Io(#[from] fileio::IoError),
     #[error("{}: {source}", path.display())]
     Parse {
         path: PathBuf,
@@ -120,13 +126,6 @@ pub enum LimapError {
 }
 
 impl LimapError {
-    pub(crate) fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
-        LimapError::Io {
-            path: path.into(),
-            source,
-        }
-    }
-
     pub(crate) fn invalid_option(message: String) -> Self {
         LimapError::Options(message)
     }

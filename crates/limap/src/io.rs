@@ -1,5 +1,6 @@
 //! File-level reading and writing: paths on errors, UTF-8 checks, atomic writes.
 
+use fileio::{IoError, IoResultExt};
 use std::io::Write as _;
 use std::path::{Path, PathBuf};
 
@@ -10,7 +11,7 @@ use crate::segments::{Segments, format_segments, parse_segments};
 use crate::track::{LineTrack, format_track, parse_track, parse_track_allow_legacy};
 
 pub(crate) fn read_text(path: &Path) -> Result<String, LimapError> {
-    let bytes = std::fs::read(path).map_err(|e| LimapError::io(path, e))?;
+    let bytes = std::fs::read(path).at(path)?;
     String::from_utf8(bytes).map_err(|e| LimapError::NotUtf8 {
         path: path.to_path_buf(),
         offset: e.utf8_error().valid_up_to(),
@@ -85,10 +86,10 @@ pub(crate) fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), LimapError> 
         f.sync_all()?;
         std::fs::rename(&tmp, path)
     })();
-    result.map_err(|e| {
+    Ok(result.map_err(|e| {
         let _ = std::fs::remove_file(&tmp);
-        LimapError::io(path, e)
-    })
+        IoError::new(path, e)
+    })?)
 }
 
 #[cfg(test)]
@@ -122,6 +123,6 @@ mod tests {
         let e = read_segments(&p).unwrap_err().to_string();
         assert!(e.contains("offset 6"), "{e}");
         let e = read_segments(dir.path().join("missing.txt")).unwrap_err();
-        assert!(matches!(e, LimapError::Io { .. }));
+        assert!(matches!(e, LimapError::Io(_)));
     }
 }

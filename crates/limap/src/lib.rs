@@ -25,6 +25,8 @@ pub mod image_list;
 pub mod io;
 pub mod limap2;
 mod numfmt;
+mod open;
+mod problem;
 pub mod segments;
 pub mod structures;
 pub mod summary;
@@ -34,18 +36,19 @@ pub mod track;
 pub use alltracks::{
     ALLTRACKS_MIN_IMAGES, AlltracksLayout, format_alltracks, parse_alltracks, select_for_alltracks,
 };
-pub use check::{Check, CheckReport, CheckResult, Problem, Severity, check};
+pub use check::{Check, CheckReport, CheckResult, check};
 pub use dir::{InputFiles, Layout, LimapDir, LimapDirOptions, SegmentsOrigin, write_limap_dir};
-pub use error::{LimapError, ParseError};
+pub use error::{BinaryError, LimapError, ParseError};
 pub use image_list::{ImageList, format_image_list, parse_image_list};
 pub use io::{
     read_alltracks, read_image_list, read_segments, read_track, read_track_allow_legacy,
     write_alltracks, write_image_list, write_segments, write_track,
 };
+pub use problem::{Problem, Severity};
 pub use segments::{Segments, format_segments, parse_segments};
 pub use structures::{
-    BinaryError, Line3dRecord, Structure2dRecord, parse_groups3d, parse_lines3d,
-    parse_structures2d, parse_wireframe3d,
+    Line3dRecord, Structure2dRecord, parse_groups3d, parse_lines3d, parse_structures2d,
+    parse_wireframe3d,
 };
 pub use summary::Summary;
 pub use track::{

@@ -16,6 +16,7 @@
 //!   whose segment becomes the support's `lines2d` entry;
 //! - alltracks: the tracks seen in >= 4 images, as LIMAP 1.x's `alltracks.txt` holds them.
 
+use fileio::IoResultExt;
 use std::collections::{BTreeMap, HashSet};
 use std::path::{Path, PathBuf};
 
@@ -64,12 +65,12 @@ pub fn locate(path: &Path) -> Option<(PathBuf, PathBuf)> {
 }
 
 fn read_bytes(path: &Path) -> Result<Vec<u8>, LimapError> {
-    std::fs::read(path).map_err(|e| LimapError::io(path, e))
+    Ok(std::fs::read(path).at(path)?)
 }
 
 fn binary<T>(
     path: &Path,
-    parse: impl FnOnce(&[u8]) -> Result<T, crate::structures::BinaryError>,
+    parse: impl FnOnce(&[u8]) -> Result<T, crate::error::BinaryError>,
 ) -> Result<T, LimapError> {
     let bytes = read_bytes(path)?;
     parse(&bytes).map_err(|source| LimapError::Binary {

@@ -25,8 +25,8 @@
 //! could hold.
 
 use serde::Serialize;
-use thiserror::Error;
 
+use crate::error::BinaryError;
 use crate::track::{Line3d, Segment2d};
 
 /// The id LIMAP (COLMAP's `kInvalidPoint3DId`) gives a 2D line without a 3D line.
@@ -49,17 +49,6 @@ pub const STRUCTURES2D_FILE: &str = "structures2d.bin";
 pub const LINES3D_FILE: &str = "lines3D.bin";
 pub const GROUPS3D_FILE: &str = "groups3D.bin";
 pub const WIREFRAME3D_FILE: &str = "wireframe3D.bin";
-
-/// A malformed binary structure file: the byte offset of the value that could not be
-/// read, the record it belongs to and what was expected.
-#[derive(Debug, Clone, PartialEq, Eq, Error)]
-#[error("byte {offset}{}: {problem}", record.as_ref().map(|r| format!(", {r}")).unwrap_or_default())]
-pub struct BinaryError {
-    pub offset: usize,
-    /// The record, e.g. `record 3 (image 12)`; `None` for the header.
-    pub record: Option<String>,
-    pub problem: String,
-}
 
 /// One 2D line of an image (LIMAP `Line2d`).
 #[derive(Debug, Clone, PartialEq, Serialize)]

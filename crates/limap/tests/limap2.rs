@@ -277,7 +277,7 @@ fn refuses_a_missing_structure_file_naming_it() {
     std::fs::remove_file(d.path().join("final_model/structures").join(LINES3D_FILE)).unwrap();
     let e = load(d.path()).unwrap_err();
     assert!(
-        matches!(e, LimapError::Io { ref path, .. } if path.ends_with(LINES3D_FILE)),
+        matches!(e, LimapError::Io(ref io) if io.path.ends_with(LINES3D_FILE)),
         "{e}"
     );
 }

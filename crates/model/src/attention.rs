@@ -1,11 +1,11 @@
 //! Multi-head scaled dot-product attention with a contiguous head split
 //! (channels `h * D/heads .. (h + 1) * D/heads` belong to head `h`).
 
-use crate::backend::{Pl2MapBackend, softmax_last};
 use crate::init::Initializer;
 use burn::module::Module;
 use burn::nn::Linear;
 use burn::tensor::{Tensor, TensorPrimitive, backend::Backend};
+use kernels::backend::{Pl2MapBackend, softmax_last};
 
 /// Query, key and value projections and the output (merge) projection, all `D -> D` with bias.
 #[derive(Module, Debug)]
@@ -93,7 +93,7 @@ pub(crate) fn attend_composed<B: Pl2MapBackend>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::testutil::{B, assert_close, pseudo, tensor, values};
+    use crate::testing::{B, assert_close, pseudo, tensor, values};
 
     /// Naive per-head attention on the host, head h owning channels h*dk..(h+1)*dk.
     fn naive(
@@ -190,8 +190,8 @@ mod tests {
     #[test]
     fn the_kernel_matches_the_composed_path() {
         // Differentiates: not beside another thread's graphs (autodiff_lock.rs).
-        let _autodiff = crate::autodiff_lock::exclusive();
-        use crate::testutil::AD;
+        let _autodiff = kernels::autodiff_lock::exclusive();
+        use crate::testing::AD;
         let (g, nq, nk, d, heads) = (2, 37, 70, 16, 4);
         let rows = g * (nq + nk);
         let x = pseudo(rows * d, 11)

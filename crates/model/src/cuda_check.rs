@@ -9,7 +9,7 @@
 #[cfg(test)]
 mod tests {
     use crate::config::LayerKind;
-    use crate::testutil::{flat, tiny_sample};
+    use crate::testing::{flat, tiny_sample};
     use crate::{
         CpuAutodiffBackend, CudaAutodiffBackend, LossConfig, ModelConfig, Pl2MapBackend, Sample,
         StepOptions, TrainState,

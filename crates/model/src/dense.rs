@@ -1,9 +1,9 @@
 //! A dense layer (`Linear`, optionally followed by a ReLU) as one operation where the
 //! backend has a kernel for it (Flex: `dense_kernel.rs`), burn's operations otherwise.
 
-use crate::backend::Pl2MapBackend;
 use burn::nn::Linear;
 use burn::tensor::{Tensor, TensorPrimitive, activation};
+use kernels::backend::Pl2MapBackend;
 
 /// `relu(layer(x))` when `relu`, `layer(x)` otherwise; x: [rows, d_in].
 pub fn dense<B: Pl2MapBackend>(layer: &Linear<B>, x: Tensor<B, 2>, relu: bool) -> Tensor<B, 2> {
@@ -35,7 +35,7 @@ pub(crate) fn dense_composed<B: Pl2MapBackend>(
 mod tests {
     use super::*;
     use crate::init::Initializer;
-    use crate::testutil::{AD, B, bits, pseudo, tensor, values};
+    use crate::testing::{AD, B, bits, pseudo, tensor, values};
 
     /// A three-layer MLP (ReLU, ReLU, plain) on rows sliced out of a larger tensor,
     /// through the kernel and through burn's operations: the outputs and the gradients
@@ -45,7 +45,7 @@ mod tests {
     #[test]
     fn matches_the_composed_path() {
         // Differentiates: not beside another thread's graphs (autodiff_lock.rs).
-        let _autodiff = crate::autodiff_lock::exclusive();
+        let _autodiff = kernels::autodiff_lock::exclusive();
         for (rows, widths) in [(37, vec![16, 24, 24, 3]), (256, vec![128, 256, 256, 4])] {
             let device = Default::default();
             let layers: Vec<Linear<AD>> = {
@@ -94,62 +94,6 @@ mod tests {
                 true,
             );
             assert!(flex.is_some(), "Flex has a dense kernel");
-        }
-    }
-
-    /// With bf16 products (`bf16_products.rs`) the kernel's outputs and the gradients of
-    /// the input, every weight and every bias stay close to the f32 path's, and differ
-    /// from them (the bf16 path ran). Hidden layers of 256 rows x 128 and 256 wide take
-    /// bf16 operands, the 4-wide output layer stays f32. Close: the output within 1 %
-    /// (RMS of the difference over RMS of the f32 values), the gradients within 10 %: a
-    /// network of the same shapes in NumPy (its own random weights and inputs), products
-    /// of bf16-rounded operands summed in f64 against f64 products, differed by 0.17 % in
-    /// its output and by 4-5 % in the gradients of its first two layers (the rounding of
-    /// each operand, 2^-9, compounds over two backward products); a wrongly wired
-    /// product (a transposed operand, a wrong dimension) gives an unrelated matrix.
-    #[test]
-    fn bf16_products_stay_close_to_the_f32_path() {
-        use crate::bf16_products::{Products, with_products};
-        let _autodiff = crate::autodiff_lock::exclusive();
-        let (rows, widths) = (256, [128, 256, 256, 4]);
-        let device = Default::default();
-        let layers: Vec<Linear<AD>> = {
-            let mut init = Initializer::<AD>::new(3, &device);
-            widths.windows(2).map(|w| init.linear(w[0], w[1])).collect()
-        };
-        let x = pseudo(rows * widths[0], 9);
-        let w_out = pseudo(rows * widths[3], 4);
-        let run = |products: Products| {
-            with_products(products, || {
-                let input = tensor::<AD, 2>(x.clone(), [rows, widths[0]]).require_grad();
-                let mut h = input.clone();
-                for (i, layer) in layers.iter().enumerate() {
-                    h = dense(layer, h, i + 1 < layers.len());
-                }
-                let loss = (h.clone() * tensor::<AD, 2>(w_out.clone(), [rows, 4])).sum();
-                let g = loss.backward();
-                let mut got = vec![values(&h), values(&input.grad(&g).unwrap())];
-                for layer in &layers {
-                    got.push(values(&layer.weight.grad(&g).unwrap()));
-                    got.push(values(&layer.bias.as_ref().unwrap().grad(&g).unwrap()));
-                }
-                got
-            })
-        };
-        let (bf16, f32) = (run(Products::Bf16), run(Products::F32));
-        for (i, (a, b)) in bf16.iter().zip(&f32).enumerate() {
-            let rms = |v: &mut dyn Iterator<Item = f64>| {
-                let (sum, n) = v.fold((0.0, 0.0), |(s, n), x| (s + x * x, n + 1.0));
-                (sum / n).sqrt()
-            };
-            let diff = rms(&mut a.iter().zip(b).map(|(x, y)| (x - y) as f64));
-            let relative = diff / rms(&mut b.iter().map(|y| *y as f64));
-            let bound = if i == 0 { 0.01 } else { 0.1 };
-            assert!(relative <= bound, "tensor {i}: {relative} of its RMS off");
-            // The output layer's bias gradient is the f32 upstream gradient itself.
-            if i != 7 {
-                assert!(bits(a) != bits(b), "tensor {i} took the bf16 path");
-            }
         }
     }
 

@@ -27,12 +27,4 @@ pub enum ModelError {
     },
     #[error("{0}")]
     DeviceUnavailable(String),
-    #[error("benchmark: {0}")]
-    Bench(String),
-    #[error("I/O error on {path}: {source}")]
-    Io {
-        path: String,
-        #[source]
-        source: std::io::Error,
-    },
 }

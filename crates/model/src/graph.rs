@@ -5,13 +5,13 @@
 //! per stream. Both streams are updated from the previous layer's values.
 
 use crate::attention::{Projections, attend_grouped};
-use crate::backend::Pl2MapBackend;
 use crate::config::LayerKind;
 use crate::dense::dense;
 use crate::init::Initializer;
 use burn::module::Module;
 use burn::nn::Linear;
 use burn::tensor::{Tensor, backend::Backend};
+use kernels::backend::Pl2MapBackend;
 
 /// One attentional propagation layer: d <- d + MLP([d || merge(attention(d, edges))]),
 /// MLP 2D -> 2D -> D with ReLU, last bias initialised to zero.
@@ -133,7 +133,7 @@ impl<B: Pl2MapBackend> GraphNetwork<B> {
 mod tests {
     use super::*;
     use crate::attention::attend;
-    use crate::testutil::{B, assert_close, pseudo, tensor, values};
+    use crate::testing::{B, assert_close, pseudo, tensor, values};
     use burn::tensor::activation;
 
     /// One layer applied to each stream on its own, from the previous values.

@@ -1,12 +1,12 @@
 //! Regression heads: an MLP with ReLU between layers and no normalisation.
 
-use crate::backend::Pl2MapBackend;
 use crate::config::HeadInit;
 use crate::dense::dense;
 use crate::init::Initializer;
 use burn::module::Module;
 use burn::nn::Linear;
 use burn::tensor::{Tensor, backend::Backend};
+use kernels::backend::Pl2MapBackend;
 
 #[derive(Module, Debug)]
 pub struct Mlp<B: Backend> {
@@ -41,7 +41,7 @@ impl<B: Pl2MapBackend> Mlp<B> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::testutil::{B, pseudo, tensor, values};
+    use crate::testing::{B, pseudo, tensor, values};
 
     /// Spread of the head's outputs over a batch of different inputs: the mean over
     /// output channels of each channel's standard deviation across rows.

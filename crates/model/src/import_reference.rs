@@ -23,7 +23,6 @@
 //! [`reference_keys`] lists every key with its shape in the order they are read, so a
 //! refusal names the first missing or misshapen one.
 
-use crate::backend::Pl2MapBackend;
 use crate::config::{LayerKind, ModelConfig};
 use crate::error::ModelError;
 use crate::init::SequentialIds;
@@ -31,6 +30,7 @@ use crate::network::{LINE_OUTPUTS, POINT_OUTPUTS, Pl2Map};
 use burn::module::{Module, Param};
 use burn::nn::{LayerNorm, Linear};
 use burn::tensor::TensorData;
+use kernels::backend::Pl2MapBackend;
 
 /// The reference's network: D = 256 (SuperPoint descriptors), 4 heads, feed-forward
 /// width 1024, layers self, cross, self, cross, self, heads 512-1024-512, T = 12.
@@ -238,7 +238,7 @@ where
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::testutil::B;
+    use crate::testing::B;
     use std::collections::BTreeMap;
 
     /// Every key is read once, in the listed order, with the listed shape.

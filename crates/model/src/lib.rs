@@ -7,81 +7,53 @@
 //! - [`compute_loss`] evaluates L_m, L_r and L_pi; [`TrainState::step`] runs forward, loss,
 //!   backward and an Adam step.
 //!
-//! Backends: the network is generic over [`Pl2MapBackend`], a burn `Backend` with a fused
-//! softmax and, on Flex, an attention kernel (see `backend.rs`), implemented for Flex, NdArray, CUDA and their `Autodiff`
-//! wrappers. [`CpuBackend`] (burn's Flex backend) is the default; the `cuda` feature adds
-//! [`CudaBackend`] and the `ndarray` feature burn's NdArray backend (kept for comparison).
-//! [`Device`] is how runs choose between CPU and CUDA (`--device cpu|cuda[:N]`).
-//!
-//! Benchmark: [`bench::run_step_benchmark`], printed by
-//! `cargo run --release -p model --example step_bench` (PyTorch side with
-//! `PL2MAP_TORCH_PYTHON=/path/to/python` pointing at an interpreter with torch).
+//! Backends: the network is generic over [`Pl2MapBackend`] (crate `kernels`: a burn
+//! `Backend` with the operations this network makes its own, and their CPU kernels),
+//! implemented for Flex, NdArray, CUDA and their `Autodiff` wrappers. [`CpuBackend`]
+//! (burn's Flex backend) is the default; the `cuda` feature adds [`CudaBackend`] and the
+//! `ndarray` feature burn's NdArray backend (kept for comparison). [`Device`] is how runs
+//! choose between CPU and CUDA (`--device cpu|cuda[:N]`). The training step (optimiser,
+//! gradient groups) is the `train` crate's (`crates/train/src/step/`).
 //!
 //! The crate re-exports `burn` so that dependants use exactly the pinned version.
 
-pub mod adam;
-pub mod alloc;
-mod amx;
+#![forbid(unsafe_code)]
+
 pub mod attention;
-mod attention_kernel;
-pub mod autodiff_lock;
-pub mod backend;
-pub mod bench;
-pub mod bf16_products;
 pub mod config;
 #[cfg(feature = "cuda")]
 mod cuda_check;
-pub mod denormals;
 pub mod dense;
-mod dense_kernel;
 pub mod device;
 pub mod dropout;
 pub mod error;
-mod flex_matrix;
 pub mod graph;
-pub mod groups;
 pub mod heads;
 pub mod import_reference;
 mod init;
 pub mod line_encoder;
 pub mod loss;
 pub mod network;
-pub mod permute;
 pub mod sample;
-mod simd_dispatch;
-mod softmax_rows;
-pub mod step;
-#[cfg(test)]
-mod testutil;
-mod transpose;
+#[doc(hidden)]
+pub mod testing;
 
-pub use backend::Pl2MapBackend;
 pub use burn;
 pub use config::{HeadInit, LayerKind, ModelConfig};
 pub use device::Device;
 pub use dropout::Dropout;
 pub use error::ModelError;
 pub use init::LAYER_NORM_EPS;
+pub use kernels::Pl2MapBackend;
 pub use loss::{LossConfig, LossTerms, LossValues, ReprojectionTargets, compute_loss};
 pub use network::{
     HostPrediction, LinePrediction, NetworkInput, ParameterCounts, Pl2Map, PointPrediction,
     Prediction,
 };
 pub use sample::{Pinhole, Sample, SampleTensors, Targets};
-pub use step::{StepOptions, StepReport, TrainState, adam_config};
 
-/// The default CPU backend (burn's Flex: its matrix products use the `gemm` crate with
-/// SIMD kernels and rayon, measured faster than NdArray on this network).
-pub type CpuBackend = burn::backend::Flex;
-/// [`CpuBackend`] with automatic differentiation, for training.
-pub type CpuAutodiffBackend = burn::backend::Autodiff<CpuBackend>;
-
-#[cfg(feature = "ndarray")]
-pub type NdArrayBackend = burn::backend::NdArray;
-#[cfg(feature = "ndarray")]
-pub type NdArrayAutodiffBackend = burn::backend::Autodiff<NdArrayBackend>;
-
+pub use kernels::{CpuAutodiffBackend, CpuBackend};
 #[cfg(feature = "cuda")]
-pub type CudaBackend = burn::backend::Cuda;
-#[cfg(feature = "cuda")]
-pub type CudaAutodiffBackend = burn::backend::Autodiff<CudaBackend>;
+pub use kernels::{CudaAutodiffBackend, CudaBackend};
+#[cfg(feature = "ndarray")]
+pub use kernels::{NdArrayAutodiffBackend, NdArrayBackend};

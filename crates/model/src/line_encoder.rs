@@ -8,14 +8,14 @@
 //! (a test checks this), at about a third of the cost.
 
 use crate::attention::Projections;
-use crate::backend::{Pl2MapBackend, softmax_last};
 use crate::dense::dense;
 use crate::dropout::Dropout;
 use crate::init::Initializer;
-use crate::permute::reshape_permute;
 use burn::module::Module;
 use burn::nn::{LayerNorm, Linear};
 use burn::tensor::{Tensor, activation, backend::Backend};
+use kernels::backend::{Pl2MapBackend, softmax_last};
+use kernels::ops::reshape_permute;
 
 #[derive(Module, Debug)]
 pub struct LineEncoder<B: Backend> {
@@ -82,7 +82,7 @@ impl<B: Pl2MapBackend> LineEncoder<B> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::testutil::{B, assert_close, pseudo, tensor, tiny_config, values};
+    use crate::testing::{B, assert_close, pseudo, tensor, tiny_config, values};
 
     /// The block run on all T tokens, as the reference does; token 0 of its output.
     fn full_block(e: &LineEncoder<B>, x: Tensor<B, 3>) -> Tensor<B, 2> {

@@ -504,7 +504,7 @@ pub fn compute_loss<B: Backend>(
 mod tests {
     use super::*;
     use crate::sample::{Pinhole, Sample};
-    use crate::testutil::{AD, B, tensor, tiny_config, values};
+    use crate::testing::{AD, B, tensor, tiny_config, values};
 
     const CAMERA: Pinhole = Pinhole {
         fx: 100.0,
@@ -766,7 +766,7 @@ mod tests {
     #[test]
     fn reprojection_gradient_matches_finite_differences() {
         // Differentiates: not beside another thread's graphs (autodiff_lock.rs).
-        let _autodiff = crate::autodiff_lock::exclusive();
+        let _autodiff = kernels::autodiff_lock::exclusive();
         let (s, _) = case();
         let cfg = LossConfig::indoor();
         let points = vec![

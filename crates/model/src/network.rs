@@ -1,6 +1,5 @@
 //! The PL2Map network: line encoder -> attentional graph -> point and line heads.
 
-use crate::backend::Pl2MapBackend;
 use crate::config::ModelConfig;
 use crate::dropout::Dropout;
 use crate::error::ModelError;
@@ -10,6 +9,7 @@ use crate::init::{Initializer, tensor_from};
 use crate::line_encoder::LineEncoder;
 use burn::module::Module;
 use burn::tensor::{Tensor, backend::Backend};
+use kernels::backend::Pl2MapBackend;
 
 /// Output channels of the point head: x, y, z, u.
 pub const POINT_OUTPUTS: usize = 4;
@@ -350,7 +350,7 @@ impl<B: Pl2MapBackend> Pl2Map<B> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::testutil::{B, assert_close, pseudo, tiny_config, tiny_sample, values};
+    use crate::testing::{B, assert_close, pseudo, tiny_config, tiny_sample, values};
 
     #[test]
     fn reference_parameter_count_at_d256() {

@@ -13,10 +13,11 @@
 //! dataset root, depth, COLMAP model and LIMAP folder then come from it and may not be
 //! given.
 
-use crate::error::{PipelineError, Result, io_err};
-use crate::expand::{expand, line_column};
+use crate::error::{PipelineError, Result};
+use crate::resolver::Resolver;
 use crate::stages::StageName;
 use datasets::ingest::{DatasetKind, DepthOption, IngestConfig};
+use fileio::io_err;
 use labels::import::ImportConfig;
 use labels::refine::RefineConfig;
 use score::ScoreStageConfig;
@@ -98,19 +99,19 @@ impl WarmStartSection {
 }
 
 /// A pipeline with every path expanded and made absolute: what [`crate::run()`] runs.
+/// The sections that need no resolving are read from `file` ([`Pipeline::synth`],
+/// [`Pipeline::refine`], [`Pipeline::shard`]): one copy of each, so that a variant such
+/// as [`Pipeline::without_refine`] changes it in one place.
 #[derive(Clone, Debug)]
 pub struct Pipeline {
     /// The file it was read from (pipeline or lock file).
     pub origin: PathBuf,
     pub file: PipelineFile,
     pub work: PathBuf,
-    pub synth: Option<SynthConfig>,
     /// With `root` (and a rendered `depth`) absolute.
     pub ingest: IngestConfig,
     /// With `model` and `limap` absolute.
     pub import: ImportConfig,
-    pub refine: Option<RefineConfig>,
-    pub shard: ShardStageConfig,
     /// A variant of the pipeline sharing the data stages (synth, ingest, import, refine):
     /// its shard, train and score folders are under `<work>/<branch>/`.
     pub branch: Option<String>,
@@ -191,155 +192,36 @@ impl Pipeline {
         prefix: &[&str],
     ) -> Result<Pipeline> {
         let r = Resolver::new(text, origin, base, prefix, file.ingest.scene.clone());
-        let work = match work {
-            Some(w) => w,
-            None => r.path(&["work"], &file.work)?,
+        let work = work_folder(&r, &file, work)?;
+        let (ingest, mut import) = match &file.synth {
+            Some(s) => synth_inputs(&r, s, &work, &file)?,
+            None => dataset_inputs(&r, &file)?,
         };
-        let work = absolute(&work)?;
-        // Stage records, frames tables and manifests hold paths as text.
-        if work.to_str().is_none() {
-            return Err(r.config(format!(
-                "the work folder {} is not valid UTF-8; choose another",
-                work.display()
-            )));
-        }
-        let mut ingest = file.ingest.clone();
-        let mut import = file.import.clone();
-        match &file.synth {
-            Some(s) => {
-                let given: Vec<String> = [
-                    ["ingest", "dataset"],
-                    ["ingest", "root"],
-                    ["ingest", "scene"],
-                    ["ingest", "depth"],
-                    ["import", "model"],
-                    ["import", "limap"],
-                ]
-                .iter()
-                .filter(|k| r.given(&k[..]))
-                .map(|k| k.join("."))
-                .collect();
-                if !given.is_empty() {
-                    return Err(r.config(format!(
-                        "{} come(s) from the synthetic scene of [synth]; remove them",
-                        given.join(", ")
-                    )));
-                }
-                s.validate()
-                    .map_err(|e| r.section("synth", e.to_string()))?;
-                let root = work.join(StageName::Synth.dir()).join(&s.name);
-                let gt = root.join(synth::gt::GT_DIR);
-                ingest.dataset = Some(match s.layout {
-                    synth::Layout::SevenScenes => DatasetKind::SevenScenes,
-                    synth::Layout::Cambridge => DatasetKind::Cambridge,
-                });
-                // The renderer writes depth in the colour camera next to 7-Scenes
-                // frames; the Cambridge layout has none.
-                if s.layout == synth::Layout::SevenScenes {
-                    ingest.depth = DepthOption::Rendered(root.clone());
-                }
-                ingest.root = Some(root);
-                import.model = Some(gt.join("colmap"));
-                import.limap = Some(gt.join("limap"));
-            }
-            None => {
-                if ingest.dataset.is_none() {
-                    return Err(r.config("ingest.dataset is required without [synth]".into()));
-                }
-                let need = |key: [&str; 2], v: &Option<PathBuf>| -> Result<PathBuf> {
-                    match v.as_deref().and_then(Path::to_str) {
-                        Some(v) => r.path(&key, v),
-                        None if v.is_some() => Err(r.value(&key, "path is not valid UTF-8".into())),
-                        None => {
-                            Err(r.config(format!("{} is required without [synth]", key.join("."))))
-                        }
-                    }
-                };
-                ingest.root = Some(need(["ingest", "root"], &ingest.root)?);
-                if let DepthOption::Rendered(dir) = &ingest.depth {
-                    let dir = dir.to_str().ok_or_else(|| {
-                        r.value(&["ingest", "depth"], "path is not valid UTF-8".into())
-                    })?;
-                    ingest.depth = DepthOption::Rendered(r.path(&["ingest", "depth"], dir)?);
-                }
-                // A descriptor of the user's own (a .toml file) is relative to this file;
-                // a built-in one is a name.
-                if let Some(d) = &ingest.descriptor
-                    && d.ends_with(".toml")
-                {
-                    let path = r.path(&["ingest", "descriptor"], d)?;
-                    ingest.descriptor =
-                        Some(path.to_str().map(str::to_string).ok_or_else(|| {
-                            r.value(&["ingest", "descriptor"], "path is not valid UTF-8".into())
-                        })?);
-                }
-                import.model = Some(need(["import", "model"], &import.model)?);
-                import.limap = Some(need(["import", "limap"], &import.limap)?);
-            }
-        }
         let mut file = file;
-        if let Some(f) = file.features.clone() {
-            // The import's detector check compares the inputs with this front-end.
-            import.front_end.kind = f.kind;
-            if let Some(w) = &f.superpoint_weights {
-                import.front_end.superpoint.weights =
-                    Some(r.path(&["features", "superpoint_weights"], w)?);
-            }
-            let Some(t) = file.train.as_mut() else {
-                return Err(
-                    r.config("[features] chooses the front-end of [train]: add [train]".into())
-                );
-            };
-            t.front_end.kind = f.kind;
-            t.model.descriptor_dim = f.kind.dim();
-            if let Some(w) = &f.superpoint_weights {
-                t.front_end.superpoint.weights =
-                    Some(r.path(&["features", "superpoint_weights"], w)?);
-            }
-        }
-        if file.score.is_some() && file.train.is_none() {
-            return Err(r.config("[score] scores the model of [train]: add [train]".into()));
-        }
-        // Every section is checked now, not when its stage starts minutes later.
-        file.import
-            .validate()
-            .map_err(|e| r.section("import", e.to_string()))?;
-        if let Some(refine) = &file.refine {
-            refine
-                .validate()
-                .map_err(|e| r.section("refine", e.to_string()))?;
-        }
-        file.shard
-            .validate()
-            .map_err(|e| r.section("shard", e.to_string()))?;
-        if let Some(t) = &file.train {
-            t.validate()
-                .map_err(|e| r.section("train", e.to_string()))?;
-        }
-        if let Some(score) = &mut file.score {
-            score
-                .resolve()
-                .validate()
-                .map_err(|e| r.section("score", e.to_string()))?;
-            if let Some(q) = &score.query_segments {
-                let key = ["score", "query_segments"];
-                let q = q
-                    .to_str()
-                    .ok_or_else(|| r.value(&key, "path is not valid UTF-8".into()))?;
-                score.query_segments = Some(r.path(&key, q)?);
-            }
-        }
+        apply_features(&r, &mut file, &mut import)?;
+        check_sections(&r, &mut file)?;
         Ok(Pipeline {
             origin: origin.to_path_buf(),
             work,
-            synth: file.synth.clone(),
             ingest,
             import,
-            refine: file.refine.clone(),
-            shard: file.shard.clone(),
             file,
             branch: None,
         })
+    }
+
+    /// `[synth]`: the scene the pipeline renders first, if any.
+    pub fn synth(&self) -> Option<&SynthConfig> {
+        self.file.synth.as_ref()
+    }
+
+    /// `[refine]`: absent, the shards take the imported labels as they are.
+    pub fn refine(&self) -> Option<&RefineConfig> {
+        self.file.refine.as_ref()
+    }
+
+    pub fn shard(&self) -> &ShardStageConfig {
+        &self.file.shard
     }
 
     /// `<work>/<stage>`, or `<work>/<branch>/<stage>` for a branch's own stages.
@@ -354,7 +236,6 @@ impl Pipeline {
     /// model and score in `<work>/without-refine/` (the data stages are shared).
     pub fn without_refine(&self) -> Pipeline {
         let mut p = self.clone();
-        p.refine = None;
         p.file.refine = None;
         p.branch = Some(WITHOUT_REFINE.to_string());
         p
@@ -362,7 +243,7 @@ impl Pipeline {
 
     /// The label folder the shards are made from: refine's, or import's without it.
     pub fn labels_dir(&self) -> PathBuf {
-        self.stage_dir(if self.refine.is_some() {
+        self.stage_dir(if self.refine().is_some() {
             StageName::Refine
         } else {
             StageName::Import
@@ -371,8 +252,166 @@ impl Pipeline {
 
     pub fn frames_path(&self) -> PathBuf {
         self.stage_dir(StageName::Ingest)
-            .join(datasets::ingest::FRAMES_FILE)
+            .join(datasets::ingest_stage::FRAMES_FILE)
     }
+}
+
+/// The work folder: `work` when given, else the file's; absolute and valid UTF-8.
+fn work_folder(r: &Resolver, file: &PipelineFile, work: Option<PathBuf>) -> Result<PathBuf> {
+    let work = match work {
+        Some(w) => w,
+        None => r.path(&["work"], &file.work)?,
+    };
+    let work = absolute(&work)?;
+    // Stage records, frames tables and manifests hold paths as text.
+    if work.to_str().is_none() {
+        return Err(r.config(format!(
+            "the work folder {} is not valid UTF-8; choose another",
+            work.display()
+        )));
+    }
+    Ok(work)
+}
+
+/// With `[synth]`: the dataset, depth, model and LIMAP folder of the rendered scene in
+/// `<work>/synth/` (and none of them may be given).
+fn synth_inputs(
+    r: &Resolver,
+    s: &SynthConfig,
+    work: &Path,
+    file: &PipelineFile,
+) -> Result<(IngestConfig, ImportConfig)> {
+    let given: Vec<String> = [
+        ["ingest", "dataset"],
+        ["ingest", "root"],
+        ["ingest", "scene"],
+        ["ingest", "depth"],
+        ["import", "model"],
+        ["import", "limap"],
+    ]
+    .iter()
+    .filter(|k| r.given(&k[..]))
+    .map(|k| k.join("."))
+    .collect();
+    if !given.is_empty() {
+        return Err(r.config(format!(
+            "{} come(s) from the synthetic scene of [synth]; remove them",
+            given.join(", ")
+        )));
+    }
+    s.validate()
+        .map_err(|e| r.section("synth", e.to_string()))?;
+    let (mut ingest, mut import) = (file.ingest.clone(), file.import.clone());
+    let root = work.join(StageName::Synth.dir()).join(&s.name);
+    let gt = root.join(synth::gt::GT_DIR);
+    ingest.dataset = Some(match s.layout {
+        synth::Layout::SevenScenes => DatasetKind::SevenScenes,
+        synth::Layout::Cambridge => DatasetKind::Cambridge,
+    });
+    // The renderer writes depth in the colour camera next to 7-Scenes frames; the
+    // Cambridge layout has none.
+    if s.layout == synth::Layout::SevenScenes {
+        ingest.depth = DepthOption::Rendered(root.clone());
+    }
+    ingest.root = Some(root);
+    import.model = Some(gt.join("colmap"));
+    import.limap = Some(gt.join("limap"));
+    Ok((ingest, import))
+}
+
+/// Without `[synth]`: the dataset folder, depth, descriptor, model and LIMAP folder as
+/// the file gives them, placed.
+fn dataset_inputs(r: &Resolver, file: &PipelineFile) -> Result<(IngestConfig, ImportConfig)> {
+    let (mut ingest, mut import) = (file.ingest.clone(), file.import.clone());
+    if ingest.dataset.is_none() {
+        return Err(r.config("ingest.dataset is required without [synth]".into()));
+    }
+    let need = |key: [&str; 2], v: &Option<PathBuf>| -> Result<PathBuf> {
+        match v.as_deref().and_then(Path::to_str) {
+            Some(v) => r.path(&key, v),
+            None if v.is_some() => Err(r.value(&key, "path is not valid UTF-8".into())),
+            None => Err(r.config(format!("{} is required without [synth]", key.join(".")))),
+        }
+    };
+    ingest.root = Some(need(["ingest", "root"], &ingest.root)?);
+    if let DepthOption::Rendered(dir) = &ingest.depth {
+        let dir = dir
+            .to_str()
+            .ok_or_else(|| r.value(&["ingest", "depth"], "path is not valid UTF-8".into()))?;
+        ingest.depth = DepthOption::Rendered(r.path(&["ingest", "depth"], dir)?);
+    }
+    // A descriptor of the user's own (a .toml file) is relative to this file; a built-in
+    // one is a name.
+    if let Some(d) = &ingest.descriptor
+        && d.ends_with(".toml")
+    {
+        let path = r.path(&["ingest", "descriptor"], d)?;
+        ingest.descriptor =
+            Some(path.to_str().map(str::to_string).ok_or_else(|| {
+                r.value(&["ingest", "descriptor"], "path is not valid UTF-8".into())
+            })?);
+    }
+    import.model = Some(need(["import", "model"], &import.model)?);
+    import.limap = Some(need(["import", "limap"], &import.limap)?);
+    Ok((ingest, import))
+}
+
+/// `[features]`: the front-end of `[train]` and of the import's detector check.
+fn apply_features(r: &Resolver, file: &mut PipelineFile, import: &mut ImportConfig) -> Result<()> {
+    let Some(f) = file.features.clone() else {
+        return Ok(());
+    };
+    // The import's detector check compares the inputs with this front-end.
+    import.front_end.kind = f.kind;
+    if let Some(w) = &f.superpoint_weights {
+        import.front_end.superpoint.weights = Some(r.path(&["features", "superpoint_weights"], w)?);
+    }
+    let Some(t) = file.train.as_mut() else {
+        return Err(r.config("[features] chooses the front-end of [train]: add [train]".into()));
+    };
+    t.front_end.kind = f.kind;
+    t.model.descriptor_dim = f.kind.dim();
+    if let Some(w) = &f.superpoint_weights {
+        t.front_end.superpoint.weights = Some(r.path(&["features", "superpoint_weights"], w)?);
+    }
+    Ok(())
+}
+
+/// Every section is checked now, not when its stage starts minutes later; `[score]`'s
+/// query segments are placed.
+fn check_sections(r: &Resolver, file: &mut PipelineFile) -> Result<()> {
+    if file.score.is_some() && file.train.is_none() {
+        return Err(r.config("[score] scores the model of [train]: add [train]".into()));
+    }
+    file.import
+        .validate()
+        .map_err(|e| r.section("import", e.to_string()))?;
+    if let Some(refine) = &file.refine {
+        refine
+            .validate()
+            .map_err(|e| r.section("refine", e.to_string()))?;
+    }
+    file.shard
+        .validate()
+        .map_err(|e| r.section("shard", e.to_string()))?;
+    if let Some(t) = &file.train {
+        t.validate()
+            .map_err(|e| r.section("train", e.to_string()))?;
+    }
+    if let Some(score) = &mut file.score {
+        score
+            .resolve()
+            .validate()
+            .map_err(|e| r.section("score", e.to_string()))?;
+        if let Some(q) = &score.query_segments {
+            let key = ["score", "query_segments"];
+            let q = q
+                .to_str()
+                .ok_or_else(|| r.value(&key, "path is not valid UTF-8".into()))?;
+            score.query_segments = Some(r.path(&key, q)?);
+        }
+    }
+    Ok(())
 }
 
 /// Parses TOML into `T`, errors prefixed with the file (toml's message has the line,
@@ -400,137 +439,6 @@ fn absolute(p: &Path) -> Result<PathBuf> {
         }
     }
     Ok(out)
-}
-
-/// Expands and places path values; errors name the file and, where the key is written
-/// in it, the line and column.
-struct Resolver<'a> {
-    text: &'a str,
-    origin: &'a Path,
-    base: &'a Path,
-    /// Where the pipeline's tables sit in `text` (`["pipeline"]` in a lock file).
-    prefix: Vec<String>,
-    /// `${SCENE}`: `ingest.scene` (after `--scene`); other names come from the environment.
-    scene: Option<String>,
-    doc: Option<toml::Spanned<toml::de::DeTable<'a>>>,
-}
-
-impl<'a> Resolver<'a> {
-    fn new(
-        text: &'a str,
-        origin: &'a Path,
-        base: &'a Path,
-        prefix: &[&str],
-        scene: Option<String>,
-    ) -> Self {
-        Resolver {
-            text,
-            origin,
-            base,
-            prefix: prefix.iter().map(|s| s.to_string()).collect(),
-            scene,
-            doc: toml::de::DeTable::parse(text).ok(),
-        }
-    }
-
-    /// The span of the value of `key` (a path of table names and a key) in the text.
-    fn span(&self, key: &[&str]) -> Option<std::ops::Range<usize>> {
-        let doc = self.doc.as_ref()?;
-        let mut table = doc.get_ref();
-        let path: Vec<&str> = self
-            .prefix
-            .iter()
-            .map(String::as_str)
-            .chain(key.iter().copied())
-            .collect();
-        let (last, tables) = path.split_last()?;
-        for name in tables {
-            match table.get(*name)?.get_ref() {
-                toml::de::DeValue::Table(t) => table = t,
-                _ => return None,
-            }
-        }
-        table.get(*last).map(|v| v.span())
-    }
-
-    /// Whether `key` is written in the file.
-    fn given(&self, key: &[&str]) -> bool {
-        self.span(key).is_some()
-    }
-
-    fn value(&self, key: &[&str], message: String) -> PipelineError {
-        match self.span(key) {
-            Some(span) => {
-                let (line, column) = line_column(self.text, span.start);
-                PipelineError::Value {
-                    path: self.origin.to_path_buf(),
-                    line,
-                    column,
-                    key: key.join("."),
-                    message,
-                }
-            }
-            None => self.config(format!("{}: {message}", key.join("."))),
-        }
-    }
-
-    /// A section's invalid value, at the line of the key the message names (the first
-    /// key of the section written in the file that the message mentions), else at the
-    /// section.
-    fn section(&self, section: &str, message: String) -> PipelineError {
-        let is_ident = |c: char| c.is_ascii_alphanumeric() || c == '_';
-        let mentions = |key: &str| {
-            message.match_indices(key).map(|(at, _)| at).find(|&at| {
-                let before = message[..at].chars().next_back();
-                let after = message[at + key.len()..].chars().next();
-                !before.is_some_and(is_ident) && !after.is_some_and(is_ident)
-            })
-        };
-        let keys = self.keys(section);
-        let named = keys
-            .iter()
-            .filter_map(|k| mentions(k).map(|at| (at, k)))
-            .min();
-        match named {
-            Some((_, key)) => self.value(&[section, key], message),
-            None => self.config(format!("[{section}]: {message}")),
-        }
-    }
-
-    /// The keys written in a section of the file.
-    fn keys(&self, section: &str) -> Vec<String> {
-        let Some(doc) = self.doc.as_ref() else {
-            return Vec::new();
-        };
-        let mut table = doc.get_ref();
-        for name in self.prefix.iter().map(String::as_str).chain([section]) {
-            match table.get(name).map(|v| v.get_ref()) {
-                Some(toml::de::DeValue::Table(t)) => table = t,
-                _ => return Vec::new(),
-            }
-        }
-        table.keys().map(|k| k.get_ref().to_string()).collect()
-    }
-
-    fn config(&self, message: String) -> PipelineError {
-        PipelineError::Config {
-            path: self.origin.to_path_buf(),
-            message,
-        }
-    }
-
-    /// Expanded (`${NAME}`), then relative to the pipeline file's folder.
-    fn path(&self, key: &[&str], v: &str) -> Result<PathBuf> {
-        let lookup = |n: &str| match n {
-            "SCENE" => self.scene.clone(),
-            _ => std::env::var(n).ok(),
-        };
-        let s = expand(v, lookup).map_err(|m| self.value(key, m))?;
-        if s.is_empty() {
-            return Err(self.value(key, "empty path".into()));
-        }
-        Ok(self.base.join(s))
-    }
 }
 
 #[cfg(test)]
@@ -588,8 +496,8 @@ mod tests {
             p.import.model,
             Some(PathBuf::from("/p/w/synth/synthroom/sfm_gt/colmap"))
         );
-        assert_eq!(p.refine, Some(RefineConfig::default()));
-        assert_eq!(p.shard, ShardStageConfig::default());
+        assert_eq!(p.refine(), Some(&RefineConfig::default()));
+        assert_eq!(p.shard(), &ShardStageConfig::default());
         assert_eq!(p.import.settings(), ImportConfig::default());
         assert_eq!(p.labels_dir(), PathBuf::from("/p/w/refine"));
     }
@@ -623,7 +531,7 @@ mod tests {
         );
         assert_eq!(p.import.model, Some(PathBuf::from("/p/hloc/stairs")));
         assert_eq!(p.import.limap, Some(PathBuf::from("/p/limap/stairs")));
-        assert!(p.refine.is_none());
+        assert!(p.refine().is_none());
         assert_eq!(p.labels_dir(), PathBuf::from("/w/import"));
     }
 

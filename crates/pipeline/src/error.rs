@@ -3,12 +3,8 @@ use thiserror::Error;
 
 #[derive(Debug, Error)]
 pub enum PipelineError {
-    #[error("{}: {source}", path.display())]
-    Io {
-        path: PathBuf,
-        #[source]
-        source: std::io::Error,
-    },
+    #[error(transparent)]
+    Io(#[from] fileio::IoError),
     /// A TOML syntax or schema error; toml's message already names line and column.
     #[error("{}: {message}", path.display())]
     Toml { path: PathBuf, message: String },
@@ -40,11 +36,6 @@ pub enum PipelineError {
 }
 
 pub type Result<T, E = PipelineError> = std::result::Result<T, E>;
-
-pub(crate) fn io_err(path: impl Into<PathBuf>) -> impl FnOnce(std::io::Error) -> PipelineError {
-    let path = path.into();
-    move |source| PipelineError::Io { path, source }
-}
 
 /// A stage's own error, kept with its full cause chain (the stage errors name their
 /// files already).

@@ -5,19 +5,21 @@
 //! - [`stages`]: the typed list of stages, in run order;
 //! - [`run()`]: the stages in order into `<work>/<stage>/`, each skipping itself when its
 //!   `stage.json` matches (the stage runner of the `stage` crate);
-//! - [`ablation`]: the pipeline with and without `[refine]`, scored side by side;
+//! - [`compare_refine`]: the pipeline with and without `[refine]`, scored side by side
+//!   (`--compare-refine`);
 //! - [`lock`]: `manifests/*.toml`, the hashes of a reproducible training set, and
 //!   [`lock::verify`], which rebuilds it and compares.
 
-pub mod ablation;
+pub mod compare_refine;
 pub mod config;
 pub mod error;
 pub mod expand;
 pub mod lock;
+mod resolver;
 pub mod run;
 pub mod stages;
 
-pub use ablation::{Ablation, run_ablation};
+pub use compare_refine::{RefineComparison, run_compare_refine};
 pub use config::{Pipeline, PipelineFile, WITHOUT_REFINE, WarmStartSection};
 pub use error::{PipelineError, Result};
 pub use lock::{Lock, VerifyReport, verify};

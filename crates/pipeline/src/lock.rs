@@ -9,9 +9,10 @@
 //! the shards made from them do not.
 
 use crate::config::{Pipeline, PipelineFile, parse};
-use crate::error::{PipelineError, Result, io_err};
+use crate::error::{PipelineError, Result};
 use crate::run::{RunOptions, run};
 use crate::stages::StageName;
+use fileio::io_err;
 use serde::{Deserialize, Serialize};
 use shards::ManifestShard;
 use std::collections::{BTreeMap, BTreeSet};
@@ -41,7 +42,7 @@ pub struct Lock {
 impl Lock {
     /// Builds the lock of a pipeline whose stages ran up to `shard` in its work folder.
     pub fn collect(p: &Pipeline) -> Result<Lock> {
-        let Some(synth) = &p.synth else {
+        let Some(synth) = p.synth() else {
             return Err(PipelineError::Config {
                 path: p.origin.clone(),
                 message: "only pipelines with [synth] can be locked (their inputs are \

@@ -118,11 +118,11 @@ impl RunReport {
 pub fn run(p: &Pipeline, options: &RunOptions) -> Result<RunReport> {
     // One run per work folder (work units of the shard stage share it).
     let mode = if options.shards.is_some() {
-        stage::LockMode::Shared
+        stage::GuardMode::Shared
     } else {
-        stage::LockMode::Exclusive
+        stage::GuardMode::Exclusive
     };
-    let _lock = stage::FolderLock::acquire(&p.work, mode)?;
+    let _guard = stage::FolderGuard::acquire(&p.work, mode)?;
     if let Some(ckpt) = &options.warm_start
         && !ckpt.is_file()
     {
@@ -166,7 +166,7 @@ fn run_stage(
     let name = stage.as_str();
     let frames = p.frames_path();
     Ok(match stage {
-        StageName::Synth => match &p.synth {
+        StageName::Synth => match p.synth() {
             Some(s) => {
                 let done = synth::synth_stage::run(s, &dir, options.progress, false)
                     .map_err(|e| stage_err(name)(&e))?;
@@ -175,27 +175,29 @@ fn run_stage(
             None => StageReport::off(stage, dir, "inputs from a dataset"),
         },
         StageName::Ingest => {
-            let done = datasets::ingest::run(&p.ingest, &dir).map_err(|e| stage_err(name)(&e))?;
+            let done =
+                datasets::ingest_stage::run(&p.ingest, &dir).map_err(|e| stage_err(name)(&e))?;
             StageReport::done(stage, dir, &done)
         }
         StageName::Import => {
-            let done = labels::import::run_with(&p.import, &frames, &dir, &|c| {
-                superpoint::front_end(c).map_err(|e| e.to_string())
+            let done = labels::import_stage::run(&p.import, &frames, &dir, &|c| {
+                frontends::build(c).map_err(|e| e.to_string())
             })
             .map_err(|e| stage_err(name)(&e))?;
             StageReport::done(stage, dir, &done)
         }
-        StageName::Refine => match &p.refine {
+        StageName::Refine => match p.refine() {
             Some(c) => {
-                let done = labels::refine::run(c, &frames, &p.stage_dir(StageName::Import), &dir)
-                    .map_err(|e| stage_err(name)(&e))?;
+                let done =
+                    labels::refine_stage::run(c, &frames, &p.stage_dir(StageName::Import), &dir)
+                        .map_err(|e| stage_err(name)(&e))?;
                 StageReport::done(stage, dir, &done)
             }
             None => StageReport::off(stage, dir, "no [refine]"),
         },
         StageName::Shard => {
             let done = shards::shard_stage::run(
-                &p.shard,
+                p.shard(),
                 &frames,
                 &p.labels_dir(),
                 &dir,

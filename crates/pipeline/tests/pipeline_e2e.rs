@@ -214,7 +214,7 @@ fn committed_pipeline_files_resolve() {
     assert_eq!(s.ingest.scene_dir(), PathBuf::from("/data/7scenes/stairs"));
     assert_eq!(s.work, PathBuf::from("/w/7scenes-stairs"));
     assert_eq!(s.import.limap, Some(PathBuf::from("/out/limap/stairs")));
-    assert!(s.refine.is_some() && s.synth.is_none());
+    assert!(s.refine().is_some() && s.synth().is_none());
     // A work unit of another scene: ${SCENE} follows --scene everywhere.
     let chess = Pipeline::load_unit(&dir.join("7scenes.toml"), None, Some("chess")).unwrap();
     assert_eq!(
@@ -245,17 +245,17 @@ fn committed_pipeline_files_resolve() {
         Some(datasets::ingest::DatasetKind::Cambridge)
     );
     assert_eq!(c.import.segment_scale, 1.2);
-    assert!(c.refine.is_none());
+    assert!(c.refine().is_none());
     let d = Pipeline::load(&dir.join("synthetic.toml")).unwrap();
-    let synth = d.synth.as_ref().unwrap();
-    assert!(!synth.tiny && synth.frames == 300 && d.refine.is_some());
+    let synth = d.synth().unwrap();
+    assert!(!synth.tiny && synth.frames == 300 && d.refine().is_some());
     assert!(d.file.train.is_some() && d.file.score.is_some());
     // The main job's deep heads start He-initialised (docs/training-notes.md, "Head
     // initialisation"); the paper's recipes below keep the reference's initialisation.
     let main_train = d.file.train.as_ref().unwrap();
     assert!(!main_train.model.head_init.is_reference());
     let t = Pipeline::load(&tiny_pipeline()).unwrap();
-    assert!(t.synth.as_ref().unwrap().tiny);
+    assert!(t.synth().unwrap().tiny);
     // The reference's graph network on the main job's data: the same data sections.
     let g = Pipeline::load(&dir.join("synthetic-paper.toml")).unwrap();
     assert_eq!(g.file.synth, d.file.synth);
@@ -369,7 +369,7 @@ fn label_ablation_in_one_run() {
     let path = dir.path().join("p.toml");
     std::fs::write(&path, format!("{text}max_iterations = 300\n")).unwrap();
     let p = Pipeline::load_with_work(&path, Some(dir.path().join("w"))).unwrap();
-    let a = pipeline::run_ablation(&p, &RunOptions::default()).unwrap();
+    let a = pipeline::run_compare_refine(&p, &RunOptions::default()).unwrap();
     assert_eq!(a.imported.status(StageName::Import), Some(&Status::Skipped));
     assert!(matches!(
         a.imported.status(StageName::Refine),
@@ -400,6 +400,7 @@ fn label_ablation_in_one_run() {
     );
     assert!(table.contains("5 cm 5 deg"), "{table}");
     // Without [refine] there is nothing to compare.
-    let err = pipeline::run_ablation(&p.without_refine(), &RunOptions::default()).unwrap_err();
+    let err =
+        pipeline::run_compare_refine(&p.without_refine(), &RunOptions::default()).unwrap_err();
     assert!(err.to_string().contains("needs [refine]"), "{err}");
 }

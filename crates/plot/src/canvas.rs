@@ -11,6 +11,9 @@ use plotters_backend::{
     BackendColor, BackendCoord, BackendStyle, BackendTextStyle, DrawingErrorKind,
 };
 
+/// The font family named in text styles (the canvas has one font: any name draws it).
+pub const FONT: &str = "DejaVu Sans";
+
 static FONT_BYTES: &[u8] = include_bytes!("../assets/DejaVuSans-plot.ttf");
 
 type Error = DrawingErrorKind<<BitMapBackend<'static> as DrawingBackend>::ErrorType>;

@@ -3,53 +3,25 @@
 //! [`Canvas`] lays out and rasterises text itself with a font embedded in the binary
 //! (`assets/DejaVuSans-plot.ttf`, a DejaVu Sans subset, licence next to it), so the same
 //! inputs give the same PNG bytes on every machine and no system font is looked up;
-//! [`legend`] draws a legend strip; [`png`] encodes the buffer.
+//! [`draw_rgb`] gives a white picture to draw on, [`FrameStyle`] draws a chart's frame
+//! (caption, margins, tick labels, axis descriptions, grid, axes) alike in both plots,
+//! [`log_ticks`] and [`decade_label`] are a log axis's ticks; [`legend`] draws a legend
+//! strip; [`png`] encodes the buffer.
 //!
 //! A crate of the foundation layer (ARCHITECTURE.md): the two plotting crates share it
 //! without depending on each other.
 
+mod buffer;
 mod canvas;
+mod frame;
 mod legend;
 
-pub use canvas::Canvas;
+pub use buffer::{draw_err, png, white_buffer};
+pub use canvas::{Canvas, FONT};
+pub use frame::{FrameStyle, MINOR_GRID, TEXT, decade_label, draw_rgb, log_ticks};
 pub use legend::{LegendStyle, legend};
 /// The plotters this canvas implements, for the crates that draw on it.
 pub use plotters;
-
-/// The font family named in text styles (the canvas has one font: any name draws it).
-pub const FONT: &str = "DejaVu Sans";
-
-/// A drawing error as text.
-pub fn draw_err<E: std::fmt::Display>(e: E) -> String {
-    format!("drawing the plot: {e}")
-}
-
-/// A white RGB buffer of `width` x `height` pixels to draw on.
-pub fn white_buffer(width: u32, height: u32) -> Vec<u8> {
-    vec![255u8; width as usize * height as usize * 3]
-}
-
-/// The PNG bytes of an RGB buffer (deterministic: no time stamp, fixed settings).
-///
-/// The one PNG encoder of the plotting crates: the PNG encoder itself, with the settings
-/// `write_to(.., ImageFormat::Png)` uses (same bytes), because `write_to` is generic
-/// over its writer and compiles every enabled encoder (PNG, JPEG, TIFF) again in each
-/// crate that calls it.
-pub fn png(buf: Vec<u8>, width: u32, height: u32) -> Result<Vec<u8>, String> {
-    use image::ImageEncoder as _;
-    let expected = width as usize * height as usize * 3;
-    if buf.len() != expected {
-        return Err(format!(
-            "plot buffer of the wrong size: {} bytes for {width} x {height} RGB",
-            buf.len()
-        ));
-    }
-    let mut out = Vec::new();
-    image::codecs::png::PngEncoder::new(&mut out)
-        .write_image(&buf, width, height, image::ExtendedColorType::Rgb8)
-        .map_err(|e| format!("encoding the plot: {e}"))?;
-    Ok(out)
-}
 
 #[cfg(test)]
 mod tests {

@@ -10,7 +10,8 @@
 //! Camera string: `MODEL WIDTH HEIGHT PARAMS...` as in COLMAP's cameras.txt without the
 //! id, e.g. `PINHOLE 640 480 525 525 320 240`.
 
-use crate::ransac::{LineMatch, PointMatch};
+use crate::matches::{LineMatch, PointMatch};
+use fileio::IoResultExt;
 use geometry::lines::{Segment2, Segment3};
 use geometry::{Camera, CameraModel, GeometryError};
 use nalgebra::{Vector2, Vector3};
@@ -20,12 +21,12 @@ use thiserror::Error;
 /// What is wrong with a correspondence file, and where.
 #[derive(Debug, Error)]
 pub enum InputError {
-    #[error("{path}: cannot read: {source}")]
-    Io {
-        path: PathBuf,
-        #[source]
-        source: std::io::Error,
-    },
+    /// The message says "cannot read", as it always has (crates/cli/tests/pose_cli.rs).
+    /// No `#[source]`: the message holds the cause's text already, and a source would
+    /// add its `<path>: <error>` once more to the CLI's cause chain
+    /// (crates/cli/src/main.rs, `error_text`).
+    #[error("{}: cannot read: {}", .0.path.display(), .0.source)]
+    Io(fileio::IoError),
     #[error("{path}: not UTF-8 text (invalid byte at offset {offset}, line {line})")]
     NotUtf8 {
         path: PathBuf,
@@ -165,10 +166,7 @@ pub fn parse_lines(text: &str, path: &Path) -> Result<Vec<LineMatch>, InputError
 }
 
 fn read_text(path: &Path) -> Result<String, InputError> {
-    let bytes = std::fs::read(path).map_err(|source| InputError::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
+    let bytes = std::fs::read(path).at(path).map_err(InputError::Io)?;
     String::from_utf8(bytes).map_err(|e| {
         let offset = e.utf8_error().valid_up_to();
         let line = 1 + e.as_bytes()[..offset]

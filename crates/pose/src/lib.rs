@@ -1,5 +1,8 @@
 //! Absolute camera pose from 2D-3D point and line correspondences.
 //!
+//! - [`PointMatch`], [`LineMatch`]: the 2D-3D correspondences a pose is estimated from
+//!   (`matches.rs`); RANSAC and the refinement work on them lifted to the normalised
+//!   image plane (`normalized.rs`).
 //! - [`solvers`]: minimal solvers P3P, P2P1LL, P1P2LL, P3LL returning every real pose.
 //! - [`ransac`]: hybrid LO-RANSAC over mixed minimal samples, then Levenberg-Marquardt
 //!   refinement of points and lines jointly with a Cauchy loss, for any perspective
@@ -14,6 +17,8 @@
 
 mod error;
 pub mod io;
+mod matches;
+mod normalized;
 mod poly;
 pub mod ransac;
 mod refine;
@@ -22,4 +27,5 @@ pub mod solvers;
 pub mod synthetic;
 
 pub use error::PoseError;
-pub use ransac::{LineMatch, PointMatch, PoseEstimate, RansacOptions, estimate_pose};
+pub use matches::{LineMatch, PointMatch};
+pub use ransac::{PoseEstimate, RansacOptions, estimate_pose};

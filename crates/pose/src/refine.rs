@@ -8,7 +8,7 @@
 //! (`X_cam <- exp([w]x) X_cam + v`), which keeps the normal equations well conditioned
 //! whatever the world origin.
 
-use crate::ransac::data::{NLine, NPoint};
+use crate::normalized::{NLine, NPoint};
 use crate::rigid::Rigid;
 use nalgebra::{Matrix6, Vector3, Vector6};
 

@@ -7,7 +7,7 @@
 //! endpoints do not correspond to the world endpoints, as with a real detector).
 //! Outliers pair an observation with an unrelated world point or segment.
 
-use crate::ransac::{LineMatch, PointMatch};
+use crate::matches::{LineMatch, PointMatch};
 use geometry::lines::{Segment2, Segment3};
 use geometry::{Camera, Pose};
 use nalgebra::{Quaternion, UnitQuaternion, Vector2, Vector3};

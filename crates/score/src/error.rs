@@ -52,12 +52,8 @@ pub enum ScoreError {
     /// A checkpoint that does not load (the reason names the file).
     #[error("network: {reason}")]
     Model { reason: String },
-    #[error("{}: {source}", path.display())]
-    Io {
-        path: PathBuf,
-        #[source]
-        source: std::io::Error,
-    },
+    #[error(transparent)]
+    Io(#[from] fileio::IoError),
     #[error("{}: not a score summary: {reason}", path.display())]
     Summary { path: PathBuf, reason: String },
     #[error("{}: parquet: {source}", path.display())]

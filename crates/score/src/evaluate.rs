@@ -3,10 +3,8 @@
 
 use crate::error::ScoreError;
 use crate::localiser::{Correspondences, TestFrame, Timing};
-use geometry::lines::{Segment2, Segment3};
 use geometry::metrics::{PoseError, pose_error};
 use geometry::{Camera, Pose};
-use nalgebra::{Vector2, Vector3};
 use pose::{LineMatch, PointMatch, RansacOptions, estimate_pose};
 use serde::{Deserialize, Serialize};
 use std::time::Instant;
@@ -62,9 +60,8 @@ impl Default for ScoreConfig {
 
 impl ScoreConfig {
     /// The configuration `pl2map score` and the pipeline's `[score]` build: RANSAC with
-    /// these thresholds and seed, the final refinement's Cauchy scale half the point
-    /// threshold for both kinds (6 px for the default 12 px, as `pl2map pose`), and the
-    /// iteration cap (None: the default) bounding the minimum too.
+    /// these thresholds (`pose::RansacOptions::with_thresholds`, as `pl2map pose`) and
+    /// seed, and the iteration cap (None: the default) bounding the minimum too.
     pub fn with_ransac(
         min_point_reliability: f64,
         min_line_reliability: f64,
@@ -73,20 +70,16 @@ impl ScoreConfig {
         seed: u64,
         max_iterations: Option<usize>,
     ) -> Self {
-        let defaults = RansacOptions::default();
-        let max_iterations = max_iterations.unwrap_or(defaults.max_iterations);
+        let base = RansacOptions::with_thresholds(point_threshold_px, line_threshold_px);
+        let max_iterations = max_iterations.unwrap_or(base.max_iterations);
         ScoreConfig {
             min_point_reliability,
             min_line_reliability,
             ransac: RansacOptions {
-                point_threshold_px,
-                line_threshold_px,
                 seed,
-                point_loss_scale_px: 0.5 * point_threshold_px,
-                line_loss_scale_px: 0.5 * point_threshold_px,
                 max_iterations,
-                min_iterations: defaults.min_iterations.min(max_iterations),
-                ..defaults
+                min_iterations: base.min_iterations.min(max_iterations),
+                ..base
             },
         }
     }
@@ -179,6 +172,14 @@ impl FrameResult {
     }
 }
 
+/// One frame localised: the result and the correspondences it was computed from
+/// ([`crate::localize::localize_batch`]'s output, what [`crate::visual`] draws).
+#[derive(Clone, Debug)]
+pub struct Localised {
+    pub result: FrameResult,
+    pub correspondences: Correspondences,
+}
+
 /// The correspondences that pass the reliability filters, as the pose crate takes
 /// them. A NaN reliability never passes.
 pub fn filter(c: &Correspondences, config: &ScoreConfig) -> (Vec<PointMatch>, Vec<LineMatch>) {
@@ -186,28 +187,13 @@ pub fn filter(c: &Correspondences, config: &ScoreConfig) -> (Vec<PointMatch>, Ve
         .points
         .iter()
         .filter(|p| p.reliability >= config.min_point_reliability)
-        .map(|p| PointMatch {
-            pixel: Vector2::from(p.pixel),
-            world: Vector3::from(p.world),
-        })
+        .map(|p| p.point)
         .collect();
     let lines = c
         .lines
         .iter()
         .filter(|l| l.reliability >= config.min_line_reliability)
-        .map(|l| {
-            let (s, w) = (l.segment, l.world);
-            LineMatch {
-                segment: Segment2 {
-                    start: Vector2::new(s[0], s[1]),
-                    end: Vector2::new(s[2], s[3]),
-                },
-                world: Segment3 {
-                    start: Vector3::new(w[0], w[1], w[2]),
-                    end: Vector3::new(w[3], w[4], w[5]),
-                },
-            }
-        })
+        .map(|l| l.line)
         .collect();
     (points, lines)
 }
@@ -330,16 +316,9 @@ mod tests {
     use crate::localiser::{LineCorrespondence, PointCorrespondence};
 
     fn corr() -> Correspondences {
-        let p = |r| PointCorrespondence {
-            pixel: [1.0, 2.0],
-            world: [0.0, 0.0, 1.0],
-            reliability: r,
-        };
-        let l = |r| LineCorrespondence {
-            segment: [0.0, 0.0, 1.0, 1.0],
-            world: [0.0, 0.0, 1.0, 1.0, 1.0, 1.0],
-            reliability: r,
-        };
+        let p = |r| PointCorrespondence::new([1.0, 2.0], [0.0, 0.0, 1.0], r);
+        let l =
+            |r| LineCorrespondence::new([0.0, 0.0, 1.0, 1.0], [0.0, 0.0, 1.0], [1.0, 1.0, 1.0], r);
         Correspondences {
             points: vec![p(0.49), p(0.5), p(0.9), p(f64::NAN)],
             lines: vec![l(0.019), l(0.02), l(1.0), l(f64::NAN)],
@@ -413,8 +392,7 @@ mod tests {
             .iter()
             .zip(&pr.point_is_inlier)
             .map(|(m, &inl)| PointCorrespondence {
-                pixel: [m.pixel.x, m.pixel.y],
-                world: [m.world.x, m.world.y, m.world.z],
+                point: *m,
                 reliability: if inl { 0.9 } else { 0.1 },
             })
             .collect();
@@ -422,13 +400,9 @@ mod tests {
             .lines
             .iter()
             .zip(&pr.line_is_inlier)
-            .map(|(l, &inl)| {
-                let (s, w) = (&l.segment, &l.world);
-                LineCorrespondence {
-                    segment: [s.start.x, s.start.y, s.end.x, s.end.y],
-                    world: [w.start.x, w.start.y, w.start.z, w.end.x, w.end.y, w.end.z],
-                    reliability: if inl { 0.5 } else { 0.01 },
-                }
+            .map(|(l, &inl)| LineCorrespondence {
+                line: *l,
+                reliability: if inl { 0.5 } else { 0.01 },
             })
             .collect();
         (

@@ -5,6 +5,7 @@
 //! gives the same poses bit for bit.
 
 use crate::error::ScoreError;
+use fileio::io_err;
 use geometry::Pose;
 use std::path::Path;
 
@@ -54,10 +55,7 @@ pub struct HlocEntry {
 /// Reads a result file (blank lines and `#` comments skipped); the quaternion must be
 /// of unit norm (geometry's tolerance).
 pub fn read_results(path: &Path) -> Result<Vec<HlocEntry>, ScoreError> {
-    let text = std::fs::read_to_string(path).map_err(|source| ScoreError::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
+    let text = std::fs::read_to_string(path).map_err(io_err(path))?;
     let bad = |line: usize, reason: String| ScoreError::HlocFormat {
         path: path.to_path_buf(),
         line,

@@ -16,7 +16,9 @@
 //!   detector run on the queries) instead of the front-end's detector.
 //! - [`visual`]: `visual.mcap` for Foxglove (the score stage's `visual`, `pl2map
 //!   localize --visual`).
-//! - [`run()`]: the stage. Outputs in the output folder, each written atomically:
+//! - [`score_stage::run`]: the stage, which records [`score_shards`]'s work in its
+//!   folder and skips it when up to date. [`score_shards`] writes its outputs in the
+//!   output folder, each atomically:
 //!   `per_frame.parquet` ([`table`]), `results_points.txt` and
 //!   `results_points_lines.txt` ([`hloc`] format), `summary.md` and `summary.json`
 //!   ([`summary`]), `cdf.png` ([`plot`]). For the same shards, localiser and seed every
@@ -36,8 +38,8 @@ pub mod network;
 pub mod oracle;
 pub mod plot;
 pub mod query_lines;
-pub mod run;
 pub mod score_stage;
+pub mod scoring;
 pub mod summary;
 pub mod table;
 pub mod visual;
@@ -50,6 +52,6 @@ pub use localiser::{
 #[cfg(feature = "network")]
 pub use network::NetworkLocaliser;
 pub use oracle::OracleLocaliser;
-pub use run::{ScoreOutput, run};
 pub use score_stage::{ScoreStageConfig, ScoreStageOutput, Source};
+pub use scoring::{ScoreOutput, score_shards};
 pub use summary::Summary;

@@ -2,7 +2,10 @@
 //! ([`crate::network`], when built) or the shard labels ([`crate::oracle`]).
 
 use crate::error::ScoreError;
+use geometry::lines::{Segment2, Segment3};
 use geometry::{Camera, Pose};
+use nalgebra::{Vector2, Vector3};
+use pose::{LineMatch, PointMatch};
 use shards::{FrameRecord, Split};
 
 /// One frame to localise, as read from a shard: image file bytes, camera, ground-truth
@@ -48,22 +51,54 @@ impl TestFrame {
     }
 }
 
-/// A keypoint (COLMAP pixels) with its predicted 3D world point.
+/// A keypoint (COLMAP pixels) and its predicted 3D world point, as the pose crate
+/// takes them, with the prediction's reliability.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PointCorrespondence {
-    pub pixel: [f64; 2],
-    pub world: [f64; 3],
+    pub point: PointMatch,
     /// Predicted reliability in [0, 1]; predictions under the threshold are dropped.
     pub reliability: f64,
 }
 
-/// A detected segment `x1 y1 x2 y2` (COLMAP pixels) with predicted 3D endpoints
-/// `X1 Y1 Z1 X2 Y2 Z2` on the same world line.
+impl PointCorrespondence {
+    /// A keypoint `[x, y]` and its world point `[X, Y, Z]`.
+    pub fn new(pixel: [f64; 2], world: [f64; 3], reliability: f64) -> Self {
+        PointCorrespondence {
+            point: PointMatch {
+                pixel: Vector2::from(pixel),
+                world: Vector3::from(world),
+            },
+            reliability,
+        }
+    }
+}
+
+/// A detected segment (COLMAP pixels) and predicted 3D endpoints on the same world
+/// line, as the pose crate takes them, with the prediction's reliability.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LineCorrespondence {
-    pub segment: [f64; 4],
-    pub world: [f64; 6],
+    pub line: LineMatch,
     pub reliability: f64,
+}
+
+impl LineCorrespondence {
+    /// A segment `[x1, y1, x2, y2]` and the world endpoints `start` (of (x1, y1)) and
+    /// `end`.
+    pub fn new(segment: [f64; 4], start: [f64; 3], end: [f64; 3], reliability: f64) -> Self {
+        LineCorrespondence {
+            line: LineMatch {
+                segment: Segment2 {
+                    start: Vector2::new(segment[0], segment[1]),
+                    end: Vector2::new(segment[2], segment[3]),
+                },
+                world: Segment3 {
+                    start: Vector3::from(start),
+                    end: Vector3::from(end),
+                },
+            },
+            reliability,
+        }
+    }
 }
 
 /// Time one step of a localiser took on a frame.

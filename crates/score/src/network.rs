@@ -208,21 +208,11 @@ pub fn correspondences(
     (
         pred.points
             .iter()
-            .map(|p| PointCorrespondence {
-                pixel: p.xy,
-                world: p.xyz,
-                reliability: p.reliability,
-            })
+            .map(|p| PointCorrespondence::new(p.xy, p.xyz, p.reliability))
             .collect(),
         pred.lines
             .iter()
-            .map(|l| LineCorrespondence {
-                segment: l.segment,
-                world: [
-                    l.start[0], l.start[1], l.start[2], l.end[0], l.end[1], l.end[2],
-                ],
-                reliability: l.reliability,
-            })
+            .map(|l| LineCorrespondence::new(l.segment, l.start, l.end, l.reliability))
             .collect(),
     )
 }
@@ -289,14 +279,16 @@ mod tests {
         assert_eq!(c.lines.len(), expected.lines.len());
         assert!(!c.points.is_empty(), "the test image should have keypoints");
         for (a, b) in c.points.iter().zip(&expected.points) {
-            assert_eq!(a.pixel, b.xy);
-            assert_eq!(a.world, b.xyz);
+            assert_eq!(a.point.pixel.as_slice(), b.xy);
+            assert_eq!(a.point.world.as_slice(), b.xyz);
             assert_eq!(a.reliability, b.reliability);
         }
         for (a, b) in c.lines.iter().zip(&expected.lines) {
-            assert_eq!(a.segment, b.segment);
-            assert_eq!(a.world[..3], b.start);
-            assert_eq!(a.world[3..], b.end);
+            let s = &a.line.segment;
+            assert_eq!([s.start.x, s.start.y, s.end.x, s.end.y], b.segment);
+            assert_eq!(a.line.world.start.as_slice(), b.start);
+            assert_eq!(a.line.world.end.as_slice(), b.end);
+            assert_eq!(a.reliability, b.reliability);
         }
         let steps: Vec<_> = c.timings.iter().map(|t| t.step.as_str()).collect();
         assert_eq!(steps, vec!["decode", "front_end", "network"]);

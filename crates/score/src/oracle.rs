@@ -40,11 +40,7 @@ impl Localiser for OracleLocaliser {
             .zip(&r.points3d)
             .zip(&r.point_valid)
             .filter(|(_, valid)| **valid)
-            .map(|((xy, xyz), _)| PointCorrespondence {
-                pixel: *xy,
-                world: *xyz,
-                reliability: 1.0,
-            })
+            .map(|((xy, xyz), _)| PointCorrespondence::new(*xy, *xyz, 1.0))
             .collect();
         let lines = r
             .segments
@@ -52,10 +48,8 @@ impl Localiser for OracleLocaliser {
             .zip(&r.lines3d)
             .zip(&r.line_valid)
             .filter(|(_, valid)| **valid)
-            .map(|((seg, ends), _)| LineCorrespondence {
-                segment: *seg,
-                world: *ends,
-                reliability: 1.0,
+            .map(|((seg, e), _)| {
+                LineCorrespondence::new(*seg, [e[0], e[1], e[2]], [e[3], e[4], e[5]], 1.0)
             })
             .collect();
         Ok(Correspondences {
@@ -73,6 +67,7 @@ impl Localiser for OracleLocaliser {
 mod tests {
     use super::*;
     use geometry::{Camera, CameraModel, Pose};
+    use nalgebra::{Vector2, Vector3};
     use shards::{FrameRecord, ImageFormat, LabelSource};
 
     fn record() -> FrameRecord {
@@ -104,11 +99,12 @@ mod tests {
             .correspond(&TestFrame { record: record() })
             .unwrap();
         assert_eq!(c.points.len(), 1);
-        assert_eq!(c.points[0].pixel, [1.0, 2.0]);
-        assert_eq!(c.points[0].world, [1.0, 1.0, 5.0]);
+        assert_eq!(c.points[0].point.pixel, Vector2::new(1.0, 2.0));
+        assert_eq!(c.points[0].point.world, Vector3::new(1.0, 1.0, 5.0));
         assert_eq!(c.points[0].reliability, 1.0);
         assert_eq!(c.lines.len(), 1);
-        assert_eq!(c.lines[0].world, [0.0, 0.0, 4.0, 1.0, 1.0, 4.0]);
+        assert_eq!(c.lines[0].line.world.start, Vector3::new(0.0, 0.0, 4.0));
+        assert_eq!(c.lines[0].line.world.end, Vector3::new(1.0, 1.0, 4.0));
         assert_eq!(c.timings.len(), 1);
         assert_eq!(OracleLocaliser.split(), Split::Train);
     }

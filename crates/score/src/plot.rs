@@ -5,9 +5,9 @@
 //! One panel per error, a title naming the frame count, axis labels with units, and a
 //! legend with each variant's localised count.
 //!
-//! Drawn by plotters into an RGB buffer, text with the embedded font of the `canvas`
-//! module below (no system font is looked up), encoded by `image`: the same errors give
-//! the same bytes.
+//! Drawn by plotters into an RGB buffer, text with the plot crate's embedded font (no
+//! system font is looked up), the frame of each panel as the loss plot's
+//! (crates/plot/src/frame.rs), encoded by `image`: the same errors give the same bytes.
 
 use crate::error::ScoreError;
 use crate::evaluate::{FrameResult, Variant};
@@ -15,7 +15,7 @@ use image::RgbImage;
 use plot::plotters::coord::Shift;
 use plot::plotters::prelude::*;
 use plot::plotters::style::text_anchor::{HPos, Pos, VPos};
-use plot::{Canvas, draw_err};
+use plot::{Canvas, FONT, FrameStyle, TEXT, draw_err};
 use std::path::Path;
 
 /// The image size in pixels.
@@ -30,22 +30,20 @@ const X_HI: f64 = 1e3;
 
 /// Colours of [`Variant::ALL`]: blue, orange.
 pub const COLORS: [RGBColor; 2] = [RGBColor(31, 119, 180), RGBColor(230, 110, 0)];
-const TEXT: RGBColor = RGBColor(30, 30, 30);
-const DECADE_GRID: RGBColor = RGBColor(205, 205, 205);
-const MINOR_GRID: RGBColor = RGBColor(236, 236, 236);
 
-/// The font family named in text styles (the canvas has one font: any name draws it).
-const FONT: &str = plot::FONT;
-
-/// A tick label of the decade `v` (0.001 ... 1000).
-fn tick_label(v: f64) -> String {
-    let e = v.log10().round() as i32;
-    if e >= 0 {
-        format!("{}", 10u64.pow(e as u32))
-    } else {
-        format!("{:.*}", (-e) as usize, 10f64.powi(e))
-    }
-}
+/// The frame of each panel.
+const PANEL: FrameStyle = FrameStyle {
+    caption_px: 21,
+    margin_top: 6,
+    margin_bottom: 4,
+    margin_left: 10,
+    margin_right: 28,
+    x_label_area: 56,
+    y_label_area: 78,
+    tick_label_px: 16,
+    axis_desc_px: 17,
+    major_grid: RGBColor(205, 205, 205),
+};
 
 /// Fraction of `n` frames with error <= x, for sorted finite `errors`.
 fn cdf(errors: &[f64], n: usize, x: f64) -> f64 {
@@ -83,39 +81,27 @@ fn panel(
     curves: &[Vec<f64>],
     n: usize,
 ) -> DrawResult<()> {
-    let decades: Vec<f64> = (-3..=3).map(|e| 10f64.powi(e)).collect();
-    let minors: Vec<f64> = (-3..3)
-        .flat_map(|e| (2..10).map(move |m| f64::from(m) * 10f64.powi(e)))
-        .collect();
-    let mut chart = ChartBuilder::on(area)
-        .caption(title, (FONT, 21).into_font().color(&TEXT))
-        .margin_top(6)
-        .margin_left(10)
-        .margin_right(28)
-        .margin_bottom(4)
-        .x_label_area_size(56)
-        .y_label_area_size(78)
-        .build_cartesian_2d(
-            (X_LO..X_HI)
-                .log_scale()
-                .with_key_points(decades)
-                .with_light_points(minors),
-            0.0..1.0,
-        )
-        .map_err(draw_err)?;
-    chart
-        .configure_mesh()
+    let (decades, minors) =
+        plot::log_ticks(X_LO.log10().round() as i32, X_HI.log10().round() as i32);
+    let mut chart = PANEL.chart(
+        area,
+        title,
+        (X_LO..X_HI)
+            .log_scale()
+            .with_key_points(decades)
+            .with_light_points(minors),
+        0.0..1.0,
+    )?;
+    let x_label = |v: &f64| plot::decade_label(*v);
+    let y_label = |v: &f64| format!("{v:.1}");
+    PANEL
+        .mesh(&mut chart)
         .x_desc(x_desc)
         .y_desc("fraction of test frames with error ≤ x")
-        .x_label_formatter(&|v| tick_label(*v))
+        .x_label_formatter(&x_label)
         .y_labels(11)
         .y_max_light_lines(1)
-        .y_label_formatter(&|v| format!("{v:.1}"))
-        .label_style((FONT, 16).into_font().color(&TEXT))
-        .axis_desc_style((FONT, 17).into_font().color(&TEXT))
-        .bold_line_style(DECADE_GRID)
-        .light_line_style(MINOR_GRID)
-        .axis_style(TEXT)
+        .y_label_formatter(&y_label)
         .draw()
         .map_err(draw_err)?;
     for (errors, color) in curves.iter().zip(COLORS) {
@@ -157,10 +143,7 @@ pub fn render(results: &[FrameResult]) -> Result<RgbImage, String> {
         })
         .collect();
 
-    let mut buf = vec![255u8; WIDTH as usize * HEIGHT as usize * 3];
-    {
-        let root = Canvas::new(&mut buf, (WIDTH, HEIGHT))?.into_drawing_area();
-        root.fill(&WHITE).map_err(draw_err)?;
+    plot::draw_rgb(WIDTH, HEIGHT, |root| {
         let (title, rest) = root.split_vertically(TITLE_H);
         let (panels, bottom) = rest.split_vertically(HEIGHT - TITLE_H - LEGEND_H);
         let frames = if n == 1 { "frame" } else { "frames" };
@@ -197,10 +180,8 @@ pub fn render(results: &[FrameResult]) -> Result<RgbImage, String> {
             spacing: 48,
             text: TEXT,
         };
-        plot::legend(&bottom, &entries, &style)?;
-        root.present().map_err(draw_err)?;
-    }
-    RgbImage::from_raw(WIDTH, HEIGHT, buf).ok_or_else(|| "plot buffer of the wrong size".into())
+        plot::legend(&bottom, &entries, &style)
+    })
 }
 
 fn png_error(reason: String) -> image::ImageError {
@@ -278,9 +259,10 @@ mod tests {
         assert_eq!(cdf(&e, 4, 1.0), 0.5);
         assert_eq!(cdf(&e, 4, 1000.0), 0.75);
         assert_eq!(cdf(&e, 0, 1.0), 0.0);
-        assert_eq!(tick_label(1e-3), "0.001");
-        assert_eq!(tick_label(1.0), "1");
-        assert_eq!(tick_label(1e3), "1000");
+        // The decades of the axis (the labels of crates/plot/src/frame.rs).
+        assert_eq!(plot::decade_label(1e-3), "0.001");
+        assert_eq!(plot::decade_label(1.0), "1");
+        assert_eq!(plot::decade_label(1e3), "1000");
     }
 
     #[test]

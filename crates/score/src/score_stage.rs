@@ -11,7 +11,7 @@ use crate::error::ScoreError;
 use crate::evaluate::ScoreConfig;
 use crate::localiser::Localiser;
 use crate::oracle::OracleLocaliser;
-use crate::run::{SUMMARY_JSON_FILE, run_with_visual as score_frames};
+use crate::scoring::{SUMMARY_JSON_FILE, score_shards_with_visual};
 use crate::summary::Summary;
 use serde::{Deserialize, Serialize};
 use shards::{Manifest, Split};
@@ -22,8 +22,8 @@ use std::path::{Path, PathBuf};
 pub const STAGE: &str = "score";
 
 /// The score stage's settings: `[score]` of a pipeline file and the flags of
-/// `pl2map score`; the only place their defaults live. Defaults: the reference
-/// evaluation's (docs/method.md section 6).
+/// `pl2map score`. Defaults: the reference evaluation's (docs/method.md section 6), taken
+/// from [`ScoreConfig::default`] and `pose::RansacOptions::default`, where they live.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, clap::Args)]
 #[serde(default, deny_unknown_fields)]
 pub struct ScoreStageConfig {
@@ -62,7 +62,7 @@ pub struct ScoreStageConfig {
     pub query_segments: Option<PathBuf>,
     /// `query_segments` coordinates times this are pixels (LIMAP detects on images
     /// resized to `max_image_dim`).
-    #[serde(skip_serializing_if = "is_one")]
+    #[serde(skip_serializing_if = "is_default_scale")]
     #[arg(long, default_value_t = ScoreStageConfig::default().query_segment_scale)]
     pub query_segment_scale: f64,
     /// Where the network runs: `cpu`, `cuda` or `cuda:N` (builds with the `cuda`
@@ -70,22 +70,27 @@ pub struct ScoreStageConfig {
     /// the CPU).
     #[cfg(feature = "network")]
     #[serde(skip_serializing_if = "train::Device::is_cpu")]
-    #[arg(long, default_value_t = train::Device::Cpu)]
+    #[arg(long, default_value_t = ScoreStageConfig::default().device)]
     pub device: train::Device,
 }
 
-fn is_one(v: &f64) -> bool {
-    *v == 1.0
+/// The default scale is left out of the record: a stage run without the option records
+/// the same hash as before it existed.
+fn is_default_scale(v: &f64) -> bool {
+    *v == ScoreStageConfig::default().query_segment_scale
 }
 
 impl Default for ScoreStageConfig {
+    /// The evaluation's settings are [`ScoreConfig::default`]'s (the reliability
+    /// filters) and `pose::RansacOptions::default`'s (thresholds, seed, iterations).
     fn default() -> Self {
+        let score = ScoreConfig::default();
         ScoreStageConfig {
-            min_point_reliability: 0.5,
-            min_line_reliability: 0.02,
-            point_threshold_px: 12.0,
-            line_threshold_px: 10.0,
-            seed: 0,
+            min_point_reliability: score.min_point_reliability,
+            min_line_reliability: score.min_line_reliability,
+            point_threshold_px: score.ransac.point_threshold_px,
+            line_threshold_px: score.ransac.line_threshold_px,
+            seed: score.ransac.seed,
             max_iterations: None,
             visual: false,
             query_segments: None,
@@ -125,7 +130,7 @@ pub enum Source {
 pub struct ScoreStageOutput {
     pub summary: Summary,
     /// The run's output when it ran (None when it was up to date).
-    pub run: Option<crate::run::ScoreOutput>,
+    pub run: Option<crate::scoring::ScoreOutput>,
 }
 
 impl stage::Note for ScoreStageOutput {
@@ -233,7 +238,7 @@ pub fn run(
                 }
                 Source::Oracle => Box::new(OracleLocaliser),
             };
-            let result = score_frames(
+            let result = score_shards_with_visual(
                 shards_dir,
                 outputs.dir(),
                 localiser.as_mut(),
@@ -249,4 +254,19 @@ pub fn run(
             })
         },
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The stage's defaults are the evaluation's and RANSAC's, taken from where they
+    /// live: a stage run with no settings scores as `ScoreConfig::default()`.
+    #[test]
+    fn defaults_resolve_to_the_evaluations() {
+        assert_eq!(
+            ScoreStageConfig::default().resolve(),
+            ScoreConfig::default()
+        );
+    }
 }

@@ -235,10 +235,7 @@ impl Summary {
     /// Reads what [`Summary::to_json`] wrote. A null median is infinite when the middle
     /// frame(s) failed (`localised <= frames / 2`: failures sort last), else NaN.
     pub fn read_json(path: &std::path::Path) -> Result<Summary, crate::ScoreError> {
-        let bytes = std::fs::read(path).map_err(|source| crate::ScoreError::Io {
-            path: path.to_path_buf(),
-            source,
-        })?;
+        let bytes = std::fs::read(path).map_err(fileio::io_err(path))?;
         let mut s: Summary =
             serde_json::from_slice(&bytes).map_err(|e| crate::ScoreError::Summary {
                 path: path.to_path_buf(),

@@ -18,9 +18,8 @@
 //! else the points one.
 
 use crate::error::ScoreError;
-use crate::evaluate::{ScoreConfig, Variant};
+use crate::evaluate::{Localised, ScoreConfig, Variant};
 use crate::localiser::TestFrame;
-use crate::localize::Localised;
 use foxglove::Encode;
 use foxglove::messages::{
     CameraCalibration, Color, CompressedImage, FrameTransform, LinePrimitive, PackedElementField,
@@ -213,10 +212,9 @@ impl VisualWriter {
             .finish()
             .map_err(mcap_err(&self.path, "finishing the file"))?;
         let buffered = self.writer.into_inner();
-        let Seekable(file) = buffered.into_inner().map_err(|e| ScoreError::Io {
-            path: self.path.clone(),
-            source: e.into_error(),
-        })?;
+        let Seekable(file) = buffered
+            .into_inner()
+            .map_err(|e| fileio::IoError::new(&self.path, e.into_error()))?;
         file.commit()?;
         Ok(self.path)
     }
@@ -270,7 +268,7 @@ fn points(l: &Localised, mask: &[bool], config: &ScoreConfig, ts: Timestamp) -> 
         config.min_point_reliability,
     );
     for (p, k) in ps.iter().zip(kept) {
-        for c in p.world {
+        for &c in p.point.world.iter() {
             data.extend_from_slice(&(c as f32).to_le_bytes());
         }
         data.extend_from_slice(&(p.reliability as f32).to_le_bytes());
@@ -311,17 +309,13 @@ fn lines(l: &Localised, mask: &[bool], config: &ScoreConfig, ts: Timestamp) -> S
         config.min_line_reliability,
     );
     for (line, k) in ls.iter().zip(kept) {
-        let w = line.world;
-        points.push(Point3 {
-            x: w[0],
-            y: w[1],
-            z: w[2],
-        });
-        points.push(Point3 {
-            x: w[3],
-            y: w[4],
-            z: w[5],
-        });
+        for end in [line.line.world.start, line.line.world.end] {
+            points.push(Point3 {
+                x: end.x,
+                y: end.y,
+                z: end.z,
+            });
+        }
         let inlier = k.and_then(|k| mask.get(k).copied());
         let c = colour(line.reliability, k.is_some(), inlier);
         let c = Color {

@@ -3,9 +3,11 @@
 //! `sfm_gt`, `shard`): the oracle's poses must be accurate (the labels are exact) and a
 //! rerun must write the same bytes.
 
-use datasets::ingest::{self, DatasetKind, DepthOption, IngestConfig};
+use datasets::ingest::{DatasetKind, DepthOption, IngestConfig};
+use datasets::ingest_stage;
 use labels::import::{self, ImportConfig};
-use score::run::{PER_FRAME_FILE, PLOT_FILE, SUMMARY_JSON_FILE, SUMMARY_MD_FILE, results_file};
+use labels::import_stage;
+use score::scoring::{PER_FRAME_FILE, PLOT_FILE, SUMMARY_JSON_FILE, SUMMARY_MD_FILE, results_file};
 use score::{OracleLocaliser, ScoreConfig, ScoreError, Variant};
 use shards::shard_stage::{self, ShardStageConfig};
 use std::path::{Path, PathBuf};
@@ -18,7 +20,7 @@ fn prepare(root: &Path) -> PathBuf {
     let scene = synth.root.clone();
     let mut ic = IngestConfig::new(DatasetKind::SevenScenes, &scene);
     ic.depth = DepthOption::Rendered(scene.clone());
-    let frames = ingest::run(&ic, &root.join("frames"))
+    let frames = ingest_stage::run(&ic, &root.join("frames"))
         .expect("ingest")
         .output
         .frames_path;
@@ -28,7 +30,7 @@ fn prepare(root: &Path) -> PathBuf {
         limap: Some(gt.join("limap")),
         ..ImportConfig::default()
     };
-    import::run(&imports, &frames, &root.join("labels")).expect("import");
+    import_stage::run(&imports, &frames, &root.join("labels"), &import::sift_only).expect("import");
     let shards = root.join("shards");
     // Several shards per split, so the reader crosses shard boundaries.
     let sc = ShardStageConfig {
@@ -55,7 +57,7 @@ fn oracle_poses_are_accurate_and_outputs_repeat() {
     let shards = prepare(dir.path());
     let config = ScoreConfig::default();
     let out_a = dir.path().join("score_a");
-    let a = score::run(&shards, &out_a, &mut OracleLocaliser, &config).expect("score");
+    let a = score::score_shards(&shards, &out_a, &mut OracleLocaliser, &config).expect("score");
 
     let s = &a.summary;
     assert_eq!(s.split, "train");
@@ -121,7 +123,7 @@ fn oracle_poses_are_accurate_and_outputs_repeat() {
     // Deterministic: a second run writes the same bytes (the timings aside), with the
     // visual file or without.
     let out_b = dir.path().join("score_b");
-    score::run::run_with_visual(&shards, &out_b, &mut OracleLocaliser, &config, true)
+    score::scoring::score_shards_with_visual(&shards, &out_b, &mut OracleLocaliser, &config, true)
         .expect("score again");
     let visual = std::fs::read(out_b.join(score::visual::VISUAL_FILE)).unwrap();
     let mut per_topic = std::collections::BTreeMap::<String, usize>::new();
@@ -183,7 +185,7 @@ fn oracle_poses_are_accurate_and_outputs_repeat() {
         },
         ..config.clone()
     };
-    let c = score::run(
+    let c = score::score_shards(
         &shards,
         &dir.path().join("score_c"),
         &mut OracleLocaliser,
@@ -199,7 +201,7 @@ fn oracle_poses_are_accurate_and_outputs_repeat() {
 
     // The test shards carry no labels: the network path reads them; the oracle refuses
     // a folder without training shards.
-    let e = score::run(
+    let e = score::score_shards(
         &dir.path().join("nowhere"),
         &dir.path().join("x"),
         &mut OracleLocaliser,
@@ -207,6 +209,6 @@ fn oracle_poses_are_accurate_and_outputs_repeat() {
     )
     .unwrap_err();
     assert!(matches!(e, ScoreError::Manifest { .. }), "{e}");
-    let test_paths = score::run::shard_paths(&shards, shards::Split::Test).unwrap();
+    let test_paths = score::scoring::shard_paths(&shards, shards::Split::Test).unwrap();
     assert!(!test_paths.is_empty());
 }

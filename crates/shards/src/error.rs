@@ -6,12 +6,8 @@ use thiserror::Error;
 /// decompressed chunk, or a frame id); errors about a frame name its frame id.
 #[derive(Debug, Error)]
 pub enum ShardError {
-    #[error("{path}: {source}")]
-    Io {
-        path: PathBuf,
-        #[source]
-        source: std::io::Error,
-    },
+    #[error(transparent)]
+    Io(#[from] fileio::IoError),
     #[error(transparent)]
     Stage(#[from] stage::StageError),
 
@@ -134,9 +130,4 @@ pub enum ShardError {
     DigestCount { digests: usize, shards: usize },
     #[error("cannot merge manifests: {0}")]
     ManifestMerge(String),
-}
-
-pub(crate) fn io_err(path: impl Into<PathBuf>) -> impl FnOnce(std::io::Error) -> ShardError {
-    let path = path.into();
-    move |source| ShardError::Io { path, source }
 }

@@ -32,14 +32,13 @@ mod record;
 pub mod schema;
 pub mod shard_stage;
 mod visual;
+mod write_shards;
 mod writer;
 
 pub use digest::{SOURCE_SUFFIX, SourceDigest};
 pub use error::ShardError;
 pub use manifest::{Manifest, ManifestShard};
-pub use plan::{
-    FrameSource, ShardJob, ShardPlan, WriteOutcome, plan_shards, shard_file_name, write_shards,
-};
+pub use plan::{ShardPlan, plan_shards, shard_file_name};
 pub use reader::{ReaderOptions, ShardFile, ShardReader};
 pub use record::{FrameRecord, ImageFormat, LabelSource, Split};
 pub use shard_stage::{MANIFEST_FILE, shards_of_split};
@@ -47,6 +46,7 @@ pub use visual::{
     CAMERA_FRAME, LINES_ENTITY_ID, WORLD_FRAME, camera_calibration, camera_transform,
     foxglove_distortion, identity_pose,
 };
+pub use write_shards::{FrameSource, ShardJob, WriteOutcome, write_shards};
 pub use writer::{
     FRAME_PERIOD_NS, LIBRARY, SHARD_FORMAT_VERSION, SHARD_METADATA_NAME, ShardConfig, ShardInfo,
     TOPIC_CALIBRATION, TOPIC_IMAGE, TOPIC_LABELS, TOPIC_LINES, TOPIC_POINTS, TOPIC_TF,

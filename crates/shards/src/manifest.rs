@@ -7,7 +7,8 @@
 //! same manifest is the same bytes wherever it is written (it is committed under
 //! `manifests/` and compared by hash).
 
-use crate::error::{ShardError, io_err};
+use crate::error::ShardError;
+use fileio::io_err;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::path::Path;

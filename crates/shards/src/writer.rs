@@ -7,10 +7,11 @@
 //! the mcap writer emits schemas, channels and indexes in id order. Same frames and
 //! config => same bytes.
 
-use crate::error::{ShardError, io_err};
+use crate::error::ShardError;
 use crate::record::FrameRecord;
 use crate::schema::{FRAME_LABELS_DESCRIPTOR_SET, FRAME_LABELS_SCHEMA_NAME, to_proto};
 use crate::visual;
+use fileio::io_err;
 use foxglove::Encode;
 use mcap::records::{MessageHeader, Metadata};
 use serde::{Deserialize, Serialize};

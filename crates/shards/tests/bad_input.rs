@@ -64,7 +64,7 @@ fn truncated_shards() {
         names_file(&err, &cut);
     }
     let err = read_err(&dir.path().join("missing.mcap"));
-    assert!(matches!(err, ShardError::Io { .. }), "{err}");
+    assert!(matches!(err, ShardError::Io(_)), "{err}");
 }
 
 /// Offsets of the records of the data section: (opcode, offset, length of body).

@@ -3,6 +3,7 @@
 
 use labels::LabelTables;
 use labels::import::{self, ImportConfig};
+use labels::import_stage;
 use shards::shard_stage::{self, ShardStageConfig, ShardStageError};
 use shards::{Manifest, ShardReader};
 use std::collections::HashMap;
@@ -18,10 +19,11 @@ fn scene_with_labels() -> Scene {
         seed: 3,
         ..Default::default()
     });
-    import::run(
+    import_stage::run(
         &scene.with_inputs(&ImportConfig::default()),
         &scene.frames_path,
         &scene.out("labels"),
+        &import::sift_only,
     )
     .unwrap();
     scene
@@ -352,10 +354,11 @@ fn the_manifest_records_the_line_track_set() {
         line_tracks: import::LineTrackSet::Alltracks,
         ..Default::default()
     };
-    import::run(
+    import_stage::run(
         &scene.with_inputs(&alltracks),
         &scene.frames_path,
         &scene.out("labels-all"),
+        &import::sift_only,
     )
     .unwrap();
     let tables = LabelTables::read(&scene.out("labels-all")).unwrap();

@@ -1,4 +1,5 @@
-use crate::{StageError, io_err};
+use crate::StageError;
+use fileio::io_err;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
@@ -49,10 +50,9 @@ impl AtomicFile {
     pub fn commit(self) -> Result<(), StageError> {
         self.tmp.as_file().sync_all().map_err(io_err(&self.dest))?;
         let dest = self.dest;
-        self.tmp.persist(&dest).map_err(|e| StageError::Io {
-            path: dest.clone(),
-            source: e.error,
-        })?;
+        self.tmp
+            .persist(&dest)
+            .map_err(|e| fileio::IoError::new(&dest, e.error))?;
         Ok(())
     }
 }
@@ -72,7 +72,7 @@ fn remove_stale_temps(dir: &Path, prefix: &str) -> Result<(), StageError> {
                 Ok(()) => {}
                 // Gone meanwhile: fine.
                 Err(err) if err.kind() == std::io::ErrorKind::NotFound => {}
-                Err(err) => return Err(io_err(&p)(err)),
+                Err(err) => return Err(io_err(&p)(err).into()),
             }
         }
     }

@@ -1,4 +1,5 @@
-use crate::{StageError, io_err};
+use crate::StageError;
+use fileio::io_err;
 use serde::Serialize;
 use sha2::{Digest, Sha256};
 use std::io::Read;

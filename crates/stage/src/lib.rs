@@ -7,20 +7,22 @@
 //! - content hashes (sha256, hex) of inputs, outputs and configurations;
 //! - `stage.json` ([`RECORD_FILE`], [`StageRecord`]): what a stage ran with and what it
 //!   wrote;
-//! - progress bars, hidden when stderr is not a terminal or when asked to be quiet.
+//! - progress bars, hidden when stderr is not a terminal or when asked to be quiet;
+//! - one writer per folder ([`FolderGuard`]).
 //!
 //! Every stage crate depends on this one and on no other stage crate for it.
 
 mod atomic;
+mod guard;
 mod hash;
-mod lock;
+pub mod out;
 mod progress;
 mod record;
 mod runner;
 
 pub use atomic::{AtomicFile, write_atomic};
+pub use guard::{FolderGuard, GUARD_FILE, GuardMode, set_wait};
 pub use hash::{hash_config, sha256_bytes, sha256_file, sha256_files};
-pub use lock::{FolderLock, LOCK_FILE, LockMode, set_wait};
 pub use progress::{progress_bar, set_quiet};
 pub use record::{RECORD_FILE, RecordCheck, StageRecord};
 pub use runner::{Done, Note, Outputs, Stage};
@@ -30,12 +32,8 @@ use thiserror::Error;
 
 #[derive(Debug, Error)]
 pub enum StageError {
-    #[error("{path}: {source}")]
-    Io {
-        path: PathBuf,
-        #[source]
-        source: std::io::Error,
-    },
+    #[error(transparent)]
+    Io(#[from] fileio::IoError),
     #[error("{path}: invalid stage record: {source}")]
     Record {
         path: PathBuf,
@@ -51,9 +49,4 @@ pub enum StageError {
         dir.display()
     )]
     Busy { dir: PathBuf, holder: String },
-}
-
-pub(crate) fn io_err(path: impl Into<PathBuf>) -> impl FnOnce(std::io::Error) -> StageError {
-    let path = path.into();
-    move |source| StageError::Io { path, source }
 }

@@ -1,4 +1,5 @@
-use crate::{StageError, io_err, sha256_file, write_atomic};
+use crate::{StageError, sha256_file, write_atomic};
+use fileio::io_err;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -64,7 +65,7 @@ impl StageRecord {
                 .map(Some)
                 .map_err(|source| StageError::Record { path, source }),
             Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(None),
-            Err(e) => Err(io_err(path)(e)),
+            Err(e) => Err(io_err(path)(e).into()),
         }
     }
 

@@ -17,16 +17,17 @@
 //! directly.
 
 use crate::{
-    AtomicFile, FolderLock, LockMode, RECORD_FILE, RecordCheck, StageError, StageRecord,
-    hash_config, io_err, sha256_file, write_atomic,
+    AtomicFile, FolderGuard, GuardMode, RECORD_FILE, RecordCheck, StageError, StageRecord,
+    hash_config, sha256_file, write_atomic,
 };
+use fileio::io_err;
 use serde::Serialize;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
 
-/// One run of a stage in its folder, holding the folder's lock (`crate::FolderLock`)
+/// One run of a stage in its folder, holding the folder's guard (`crate::FolderGuard`)
 /// for as long as it lives.
 #[derive(Clone, Debug)]
 pub struct Stage {
@@ -35,7 +36,7 @@ pub struct Stage {
     config_hash: String,
     inputs: BTreeMap<String, String>,
     /// Held, not read: released when the last clone of the stage is dropped.
-    _lock: Arc<FolderLock>,
+    _guard: Arc<FolderGuard>,
 }
 
 /// What a stage gives back: its output, and whether it was up to date.
@@ -72,31 +73,31 @@ impl<T: Note> Done<T> {
 
 impl Stage {
     /// `config` is hashed (its JSON serialisation); `inputs` maps input names to content
-    /// hashes. Locks the folder (created if needed) for this stage alone.
+    /// hashes. Guards the folder (created if needed) for this stage alone.
     pub fn new<C: Serialize>(
         name: &'static str,
         dir: impl Into<PathBuf>,
         config: &C,
         inputs: BTreeMap<String, String>,
     ) -> Result<Self, StageError> {
-        Stage::with_lock(name, dir, config, inputs, LockMode::Exclusive)
+        Stage::with_guard(name, dir, config, inputs, GuardMode::Exclusive)
     }
 
-    /// As [`Stage::new`], sharing the folder with other holders of a shared lock (the
+    /// As [`Stage::new`], sharing the folder with other holders of a shared guard (the
     /// shard stage's work units, which write disjoint files).
-    pub fn with_lock<C: Serialize>(
+    pub fn with_guard<C: Serialize>(
         name: &'static str,
         dir: impl Into<PathBuf>,
         config: &C,
         inputs: BTreeMap<String, String>,
-        mode: LockMode,
+        mode: GuardMode,
     ) -> Result<Self, StageError> {
         let dir = dir.into();
         let config_hash = hash_config(config)?;
-        let lock = Arc::new(FolderLock::acquire(&dir, mode)?);
+        let guard = Arc::new(FolderGuard::acquire(&dir, mode)?);
         // Held alone, the folder has no other writer: what killed runs left there goes
         // now, whether or not this run rewrites anything.
-        if mode == LockMode::Exclusive {
+        if mode == GuardMode::Exclusive {
             remove_leftovers(&dir)?;
         }
         Ok(Stage {
@@ -104,7 +105,7 @@ impl Stage {
             dir,
             config_hash,
             inputs,
-            _lock: lock,
+            _guard: guard,
         })
     }
 
@@ -150,7 +151,7 @@ impl Stage {
         match std::fs::remove_file(&record) {
             Ok(()) => {}
             Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
-            Err(e) => return Err(io_err(&record)(e)),
+            Err(e) => return Err(io_err(&record)(e).into()),
         }
         Ok(Outputs {
             record: StageRecord::new(self.name, self.config_hash.clone(), self.inputs.clone()),
@@ -195,7 +196,7 @@ impl Stage {
 }
 
 /// Removes what killed runs left in `dir`: temp files `.<name>.*tmp` and staging folders
-/// `.<name>.partial-<pid>`. Only called with the folder's exclusive lock held, so their
+/// `.<name>.partial-<pid>`. Only called with the folder's exclusive guard held, so their
 /// writers are gone; only hidden names of those two shapes, nothing a user keeps.
 fn remove_leftovers(dir: &Path) -> Result<(), StageError> {
     for entry in std::fs::read_dir(dir).map_err(io_err(dir))? {
@@ -215,7 +216,7 @@ fn remove_leftovers(dir: &Path) -> Result<(), StageError> {
         match result {
             Ok(()) => tracing::info!("removed {}, left by a killed run", path.display()),
             Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
-            Err(e) => return Err(io_err(&path)(e)),
+            Err(e) => return Err(io_err(&path)(e).into()),
         }
     }
     Ok(())

@@ -33,6 +33,9 @@ pub enum SuperPointError {
     /// earlier, with the build command: `model::Device::check_built`).
     #[error("SuperPoint on cuda:{0}: this build has no CUDA backend (the `cuda` feature)")]
     NoCuda(usize),
+    /// A file that cannot be read (the weights file, while hashing it).
+    #[error(transparent)]
+    Io(#[from] fileio::IoError),
     #[error(transparent)]
     Features(#[from] features::FeatureError),
 }

@@ -1,5 +1,5 @@
-//! The SuperPoint front-end ([`features::FrontEnd`]) and the builder of a front-end of
-//! either kind from its configuration.
+//! The SuperPoint front-end ([`features::FrontEnd`]). The builder of a front-end of either
+//! kind from its configuration is `frontends::build` (crates/frontends/src/lib.rs).
 //!
 //! Coordinates: the caller's are COLMAP pixels of the original image. The network sees
 //! the image resized so that its longer side is at most `resize_max` (area
@@ -13,31 +13,9 @@ use crate::net::{DenseMaps, SuperPointBackend, SuperPointNet};
 use crate::weights::{Weights, file_sha256};
 use features::{
     Described, Detections, FeatureError, FrontEnd, FrontEndConfig, FrontEndKind, SUPERPOINT_DIM,
-    SiftFrontEnd, sample_points,
+    sample_points,
 };
 use image::GrayImage;
-use std::sync::Arc;
-
-/// Builds the front-end `config` describes. SuperPoint reads its weights from
-/// `superpoint.weights` (else `PL2MAP_SUPERPOINT_WEIGHTS`); when the configuration
-/// records a weights hash (a checkpoint's does), the file must have that hash. The
-/// returned front-end's configuration records the file's hash.
-pub fn front_end(config: &FrontEndConfig) -> Result<Arc<dyn FrontEnd>, SuperPointError> {
-    front_end_on(config, None)
-}
-
-/// [`front_end`] with SuperPoint's network on CUDA GPU `gpu` (None: the CPU; builds
-/// with the `cuda` feature). SIFT and LSD run on the CPU either way.
-pub fn front_end_on(
-    config: &FrontEndConfig,
-    gpu: Option<usize>,
-) -> Result<Arc<dyn FrontEnd>, SuperPointError> {
-    config.validate()?;
-    match config.kind {
-        FrontEndKind::Sift => Ok(Arc::new(SiftFrontEnd::new(config.clone())?)),
-        FrontEndKind::Superpoint => Ok(Arc::new(SuperPointFrontEnd::from_config_on(config, gpu)?)),
-    }
-}
 
 /// The sha256 of the weights file `config` names, or None for SIFT (which has no
 /// weights) or when no file is named.

@@ -1,7 +1,7 @@
 //! The SuperPoint front-end (DeTone, Malisiewicz, Rabinovich: "SuperPoint:
 //! Self-Supervised Interest Point Detection and Description", CVPRW 2018) on burn, as
-//! docs/method.md section 2b describes it, and [`front_end`], which builds a
-//! [`features::FrontEnd`] of either kind from a [`features::FrontEndConfig`].
+//! docs/method.md section 2b describes it. A front-end of either kind is built from a
+//! [`features::FrontEndConfig`] by the `frontends` crate (`frontends::build`).
 //!
 //! - `weights.rs`: the released state dict (`superpoint_v1.pth`, supplied by the user,
 //!   never downloaded) read directly with burn's PyTorch reader; a missing key or a
@@ -20,6 +20,6 @@ pub mod net;
 pub mod weights;
 
 pub use error::SuperPointError;
-pub use frontend::{SuperPointFrontEnd, front_end, front_end_on, weights_sha256};
+pub use frontend::{SuperPointFrontEnd, weights_sha256};
 pub use net::{DenseMaps, SuperPointBackend, SuperPointNet};
 pub use weights::{LAYERS, StateDict, Weights, file_sha256, parameter_count};

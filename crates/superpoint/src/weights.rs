@@ -72,7 +72,7 @@ pub fn parameter_count() -> usize {
 pub fn file_sha256(path: &Path) -> Result<String, SuperPointError> {
     stage::sha256_file(path).map_err(|e| match e {
         // The error names the file already.
-        stage::StageError::Io { source, .. } => SuperPointError::weights(path, None, source),
+        stage::StageError::Io(e) => SuperPointError::Io(e),
         other => SuperPointError::weights(path, None, other),
     })
 }

@@ -206,20 +206,26 @@ fn a_checkpoint_s_weights_hash_is_enforced() {
     make_weights(&python, &a, 3, "");
     let mut cfg = config();
     cfg.superpoint.weights = Some(a.clone());
-    let fe = superpoint::front_end(&cfg).unwrap();
+    let fe = SuperPointFrontEnd::from_config(&cfg).unwrap();
     let recorded = fe.config().superpoint.weights_sha256.clone().unwrap();
     assert_eq!(recorded, superpoint::file_sha256(&a).unwrap());
     let b = dir.path().join("b.pth");
     make_weights(&python, &b, 4, "");
     let mut other = fe.config().clone();
     other.superpoint.weights = Some(b);
-    let e = superpoint::front_end(&other).err().unwrap().to_string();
+    let e = SuperPointFrontEnd::from_config(&other)
+        .err()
+        .unwrap()
+        .to_string();
     assert!(e.contains("b.pth") && e.contains(&recorded), "{e}");
     // No file anywhere: the error says where to name one.
     let mut none = config();
     none.superpoint.weights = None;
     if std::env::var_os(features::SUPERPOINT_WEIGHTS_ENV).is_none() {
-        let e = superpoint::front_end(&none).err().unwrap().to_string();
+        let e = SuperPointFrontEnd::from_config(&none)
+            .err()
+            .unwrap()
+            .to_string();
         assert!(
             e.contains("superpoint_weights") && e.contains("--weights"),
             "{e}"

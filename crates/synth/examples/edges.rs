@@ -1,5 +1,5 @@
 //! Contact sheet of frames with the scene's visible 3D edges projected on them (exact
-//! geometry check by eye). Usage: synth_edges OUT.png [SEED] [FRAME...]
+//! geometry check by eye). Usage: cargo run --release -p synth --example edges -- OUT.png [SEED] [FRAME...]
 
 use geometry::lines::{clip_segment_to_image, clip_to_near_plane};
 use synth::{SynthDataset, contact_sheet, preview::SheetFrame};

@@ -1,5 +1,5 @@
 //! Renders frames of the synthetic dataset to PNG files and prints timings.
-//! Usage: cargo run --release -p datasets --example synth_frame -- OUT_DIR [SEED] [FRAME...]
+//! Usage: cargo run --release -p synth --example frame -- OUT_DIR [SEED] [FRAME...]
 
 use std::time::Instant;
 use synth::SynthDataset;

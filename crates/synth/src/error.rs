@@ -24,12 +24,10 @@ pub enum SynthError {
     FrameIndex { index: usize, count: usize },
     #[error("output {0} already exists (pass overwrite to replace it)")]
     OutputExists(PathBuf),
-    #[error("I/O error on {path}: {source}")]
-    Io {
-        path: PathBuf,
-        #[source]
-        source: std::io::Error,
-    },
+    /// `fileio::IoError` displays `<path>: <source>`: the message stays
+    /// "I/O error on <path>: <source>".
+    #[error("I/O error on {0}")]
+    Io(#[from] fileio::IoError),
     #[error(transparent)]
     Stage(#[from] stage::StageError),
     #[error(
@@ -50,15 +48,6 @@ pub enum SynthError {
         #[source]
         source: image::ImageError,
     },
-}
-
-impl SynthError {
-    pub(crate) fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
-        SynthError::Io {
-            path: path.into(),
-            source,
-        }
-    }
 }
 
 pub type Result<T, E = SynthError> = std::result::Result<T, E>;

@@ -1,6 +1,7 @@
 //! The library entry point: build the room and its camera paths, render every frame in
 //! parallel and write the chosen layout atomically.
 
+use super::dataset::SynthDataset;
 use super::error::{Result, SynthError};
 use super::gt;
 use super::layout::{
@@ -8,17 +9,13 @@ use super::layout::{
     encode_png_rgb, format_cambridge_split, format_nvm, format_pose_txt, format_split_file,
     seven_scenes_names,
 };
-use super::render::Rendered;
-use super::scene::Scene;
-use super::trajectory::{
-    DEFAULT_FRAMES, FrameSpec, Split, default_camera, plan_frames, plan_sequences,
-};
+use super::trajectory::{DEFAULT_FRAMES, FrameSpec, Split};
+use fileio::IoError;
 use geometry::{Camera, Pose};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeSet;
 use std::path::PathBuf;
-use std::sync::Arc;
 
 /// Default scene folder name.
 pub const DEFAULT_SCENE_NAME: &str = "synthroom";
@@ -140,73 +137,6 @@ impl WriteOptions {
     }
 }
 
-/// The scene, the camera and every frame's pose: everything needed to render or
-/// raycast any frame again, without touching the disk.
-#[derive(Clone, Debug)]
-pub struct SynthDataset {
-    pub scene: Arc<Scene>,
-    pub camera: Camera,
-    pub frames: Vec<FrameSpec>,
-    pub seed: u64,
-}
-
-impl SynthDataset {
-    /// Builds the scene for `seed` and plans `frames` frames (or the tiny plan).
-    pub fn new(frames: usize, seed: u64, tiny: bool) -> Result<Self> {
-        let plans = plan_sequences(frames, tiny)?;
-        let scene = Scene::shared(seed);
-        let frames = plan_frames(&scene, &plans, seed)?;
-        Ok(SynthDataset {
-            scene,
-            camera: default_camera(),
-            frames,
-            seed,
-        })
-    }
-
-    /// Drops the training sequences after the first `n` (test frames stay).
-    pub fn keep_train_sequences(&mut self, n: usize) -> Result<()> {
-        let train = self.sequences(Split::Train);
-        if n == 0 || n > train.len() {
-            return Err(SynthError::InvalidConfig(format!(
-                "train_sequences {n}: the scene has {} training sequences (1..={0})",
-                train.len()
-            )));
-        }
-        let dropped: BTreeSet<u32> = train[n..].iter().copied().collect();
-        self.frames.retain(|f| !dropped.contains(&f.sequence));
-        Ok(())
-    }
-
-    pub fn len(&self) -> usize {
-        self.frames.len()
-    }
-
-    pub fn is_empty(&self) -> bool {
-        self.frames.is_empty()
-    }
-
-    /// Renders frame `i` (deterministic: the same pixels on every call and thread).
-    pub fn render_frame(&self, i: usize) -> Result<Rendered> {
-        let f = self.frames.get(i).ok_or(SynthError::FrameIndex {
-            index: i,
-            count: self.frames.len(),
-        })?;
-        self.scene.render(&self.camera, &f.pose)
-    }
-
-    /// Sequence numbers of a split, ascending.
-    pub fn sequences(&self, split: Split) -> Vec<u32> {
-        self.frames
-            .iter()
-            .filter(|f| f.split == split)
-            .map(|f| f.sequence)
-            .collect::<BTreeSet<_>>()
-            .into_iter()
-            .collect()
-    }
-}
-
 /// One written frame.
 #[derive(Clone, Debug, PartialEq)]
 pub struct FrameInfo {
@@ -265,7 +195,8 @@ pub fn generate(cfg: &SynthConfig, write: &WriteOptions) -> Result<SynthOutput> 
         label_noise_cm: cfg.label_noise_cm,
         ..gt::GtConfig::default()
     };
-    let gt_err = |e: gt::GtError| SynthError::io(gt::GT_DIR, std::io::Error::other(e));
+    let gt_err =
+        |e: gt::GtError| SynthError::from(IoError::new(gt::GT_DIR, std::io::Error::other(e)));
     if cfg.ground_truth {
         gt_cfg.validate().map_err(gt_err)?;
     }
@@ -410,27 +341,4 @@ pub fn generate(cfg: &SynthConfig, write: &WriteOptions) -> Result<SynthOutput> 
         frames,
         ground_truth,
     })
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// Fewer training sequences: a subset of the full scene's frames, same poses, same
-    /// test frames.
-    #[test]
-    fn keeping_train_sequences_only_drops_frames() {
-        let full = SynthDataset::new(0, 0, true).unwrap();
-        let mut part = full.clone();
-        part.keep_train_sequences(3).unwrap();
-        assert_eq!(part.sequences(Split::Train), vec![1, 2, 4]);
-        assert_eq!(part.sequences(Split::Test), full.sequences(Split::Test));
-        let kept: Vec<&FrameSpec> = full.frames.iter().filter(|f| f.sequence != 5).collect();
-        assert_eq!(part.frames.iter().collect::<Vec<_>>(), kept);
-        assert_eq!(part.len(), full.len() - 6);
-        for bad in [0, 5] {
-            let err = full.clone().keep_train_sequences(bad).unwrap_err();
-            assert!(err.to_string().contains("4 training sequences"), "{err}");
-        }
-    }
 }

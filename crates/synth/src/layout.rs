@@ -15,6 +15,7 @@
 //! place in one step at the end; a killed run leaves only a `.partial` folder.
 
 use super::error::{Result, SynthError};
+use fileio::{IoError, IoResultExt};
 use geometry::Pose;
 use image::codecs::png::{CompressionType, FilterType, PngEncoder};
 use image::{ExtendedColorType, ImageBuffer, ImageEncoder, Luma, RgbImage};
@@ -23,34 +24,41 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 /// Which dataset layout to write.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
+#[derive(
+    Clone,
+    Copy,
+    Debug,
+    PartialEq,
+    Eq,
+    Hash,
+    serde::Serialize,
+    serde::Deserialize,
+    strum::Display,
+    strum::EnumString,
+    strum::VariantNames,
+)]
+#[serde(rename_all = "lowercase")]
+#[strum(
+    serialize_all = "lowercase",
+    parse_err_ty = String,
+    parse_err_fn = unknown_layout
+)]
 pub enum Layout {
+    // No case rule spells a leading digit: named by hand, on both sides. The command
+    // line also takes `7-scenes`.
     #[serde(rename = "7scenes")]
+    #[strum(to_string = "7scenes", serialize = "7-scenes")]
     SevenScenes,
-    #[serde(rename = "cambridge")]
     Cambridge,
 }
 
-impl std::fmt::Display for Layout {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(match self {
-            Layout::SevenScenes => "7scenes",
-            Layout::Cambridge => "cambridge",
-        })
-    }
-}
-
-impl std::str::FromStr for Layout {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        match s {
-            "7scenes" | "7-scenes" => Ok(Layout::SevenScenes),
-            "cambridge" => Ok(Layout::Cambridge),
-            _ => Err(format!(
-                "unknown layout {s:?}: expected 7scenes or cambridge"
-            )),
-        }
-    }
+/// The parse error, naming the accepted layouts.
+fn unknown_layout(s: &str) -> String {
+    use strum::VariantNames;
+    format!(
+        "unknown layout {s:?}: expected {}",
+        Layout::VARIANTS.join(" or ")
+    )
 }
 
 /// `x` as C's `printf("%.{prec}e")` on Windows: mantissa, `e`, sign, three-digit exponent.
@@ -248,11 +256,11 @@ pub fn write_file_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_else(|| "out".into());
     let tmp = dir.join(format!(".{name}.tmp-{}", std::process::id()));
-    std::fs::write(&tmp, bytes).map_err(|e| SynthError::io(&tmp, e))?;
-    std::fs::rename(&tmp, path).map_err(|e| {
+    std::fs::write(&tmp, bytes).at(&tmp)?;
+    Ok(std::fs::rename(&tmp, path).map_err(|e| {
         let _ = std::fs::remove_file(&tmp);
-        SynthError::io(path, e)
-    })
+        IoError::new(path, e)
+    })?)
 }
 
 /// A staging folder `OUT/.<name>.partial-<pid>` that becomes `OUT/<name>` on commit and
@@ -270,12 +278,12 @@ impl Staging {
         if dest.exists() && !overwrite {
             return Err(SynthError::OutputExists(dest));
         }
-        std::fs::create_dir_all(out).map_err(|e| SynthError::io(out, e))?;
+        std::fs::create_dir_all(out).at(out)?;
         let tmp = out.join(format!(".{name}.partial-{}", std::process::id()));
         if tmp.exists() {
-            std::fs::remove_dir_all(&tmp).map_err(|e| SynthError::io(&tmp, e))?;
+            std::fs::remove_dir_all(&tmp).at(&tmp)?;
         }
-        std::fs::create_dir(&tmp).map_err(|e| SynthError::io(&tmp, e))?;
+        std::fs::create_dir(&tmp).at(&tmp)?;
         Ok(Staging {
             tmp,
             dest,
@@ -297,13 +305,13 @@ impl Staging {
     /// Creates a sub-folder of the staging folder.
     pub fn create_dir(&self, rel: &str) -> Result<()> {
         let p = self.tmp.join(rel);
-        std::fs::create_dir_all(&p).map_err(|e| SynthError::io(&p, e))
+        Ok(std::fs::create_dir_all(&p).at(&p)?)
     }
 
     /// Writes a file (relative path) into the staging folder.
     pub fn write(&self, rel: &str, bytes: &[u8]) -> Result<()> {
         let p = self.tmp.join(rel);
-        std::fs::write(&p, bytes).map_err(|e| SynthError::io(&p, e))
+        Ok(std::fs::write(&p, bytes).at(&p)?)
     }
 
     /// Moves the staging folder into place (replacing an old one when allowed).
@@ -320,11 +328,11 @@ impl Staging {
                     .unwrap_or_default(),
                 std::process::id()
             ));
-            std::fs::rename(&self.dest, &old).map_err(|e| SynthError::io(&self.dest, e))?;
-            std::fs::rename(&self.tmp, &self.dest).map_err(|e| SynthError::io(&self.dest, e))?;
-            std::fs::remove_dir_all(&old).map_err(|e| SynthError::io(&old, e))?;
+            std::fs::rename(&self.dest, &old).at(&self.dest)?;
+            std::fs::rename(&self.tmp, &self.dest).at(&self.dest)?;
+            std::fs::remove_dir_all(&old).at(&old)?;
         } else {
-            std::fs::rename(&self.tmp, &self.dest).map_err(|e| SynthError::io(&self.dest, e))?;
+            std::fs::rename(&self.tmp, &self.dest).at(&self.dest)?;
         }
         self.committed = true;
         Ok(self.dest.clone())
@@ -453,5 +461,19 @@ mod tests {
         let dest = s.commit().unwrap();
         assert!(!dest.join("a.txt").exists() && dest.join("b.txt").exists());
         assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
+    }
+
+    #[test]
+    fn layout_serde_and_strum_names_agree() {
+        for layout in [Layout::SevenScenes, Layout::Cambridge] {
+            let json = serde_json::to_string(&layout).unwrap();
+            assert_eq!(json, format!("\"{layout}\""));
+            assert_eq!(layout.to_string().parse::<Layout>(), Ok(layout));
+        }
+        assert_eq!("7-scenes".parse::<Layout>(), Ok(Layout::SevenScenes));
+        assert_eq!(
+            "7Scenes".parse::<Layout>(),
+            Err("unknown layout \"7Scenes\": expected 7scenes or cambridge".to_string())
+        );
     }
 }

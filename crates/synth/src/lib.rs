@@ -13,6 +13,8 @@
 //! - [`preview::contact_sheet`] draws frames with keypoints and segments.
 
 mod build;
+pub mod dataset;
+pub mod elements;
 pub mod error;
 pub mod generate;
 pub mod gt;
@@ -26,14 +28,15 @@ pub mod synth_stage;
 pub mod texture;
 pub mod trajectory;
 
+pub use dataset::SynthDataset;
+pub use elements::{Edge3, EdgeKind, Object, ObjectKind, ROOM};
 pub use error::{Result, SynthError};
 pub use generate::{
-    FrameInfo, SynthConfig, SynthDataset, SynthOutput, WriteOptions, color_name, generate,
-    generate_tiny,
+    FrameInfo, SynthConfig, SynthOutput, WriteOptions, color_name, generate, generate_tiny,
 };
 pub use layout::Layout;
 pub use preview::contact_sheet;
 pub use quad::{Aabb, Quad, Surface};
 pub use render::Rendered;
-pub use scene::{Edge3, EdgeKind, Hit, Object, ObjectKind, ROOM, Scene};
+pub use scene::{Hit, Scene};
 pub use trajectory::{FrameSpec, Split, default_camera};

@@ -5,6 +5,7 @@
 
 use crate::error::{Result, SynthError};
 use crate::generate::{SynthConfig, WriteOptions, generate};
+use fileio::IoResultExt;
 use stage::{Done, Stage};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -91,10 +92,10 @@ pub fn files_under(dir: &Path, sub: &str) -> Result<Vec<String>> {
     let mut out = Vec::new();
     let mut stack: Vec<PathBuf> = vec![dir.join(sub)];
     while let Some(d) = stack.pop() {
-        for entry in std::fs::read_dir(&d).map_err(|e| SynthError::io(&d, e))? {
-            let entry = entry.map_err(|e| SynthError::io(&d, e))?;
+        for entry in std::fs::read_dir(&d).at(&d)? {
+            let entry = entry.at(&d)?;
             let p = entry.path();
-            let ty = entry.file_type().map_err(|e| SynthError::io(&p, e))?;
+            let ty = entry.file_type().at(&p)?;
             if ty.is_dir() {
                 stack.push(p);
             } else if ty.is_file() {

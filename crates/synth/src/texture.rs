@@ -23,6 +23,24 @@ pub fn mix(a: Rgb, b: Rgb, t: f32) -> Rgb {
     ]
 }
 
+/// A colour from hue (0..1), saturation and value.
+pub fn hsv(h: f32, s: f32, v: f32) -> Rgb {
+    let h = (h.rem_euclid(1.0)) * 6.0;
+    let i = h.floor();
+    let f = h - i;
+    let p = v * (1.0 - s);
+    let q = v * (1.0 - s * f);
+    let t = v * (1.0 - s * (1.0 - f));
+    match i as i32 {
+        0 => [v, t, p],
+        1 => [q, v, p],
+        2 => [p, v, t],
+        3 => [p, q, v],
+        4 => [t, p, v],
+        _ => [v, p, q],
+    }
+}
+
 pub fn scale(c: Rgb, s: f32) -> Rgb {
     [c[0] * s, c[1] * s, c[2] * s]
 }

@@ -4,8 +4,9 @@
 //! other loops (other radii, heights, direction) through the same viewing directions as
 //! a training sequence, so they see the same room from different positions.
 
+use super::elements::ROOM;
 use super::error::{Result, SynthError};
-use super::scene::{ROOM, Scene};
+use super::scene::Scene;
 use geometry::{Camera, CameraModel, Pose};
 use nalgebra::{Matrix3, Rotation3, UnitQuaternion, Vector3};
 use rand::Rng;

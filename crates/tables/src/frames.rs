@@ -34,8 +34,22 @@ pub const META_KEY: &str = "pl2map.frames.meta";
 pub const VERSION_KEY: &str = "pl2map.frames.version";
 pub const TABLE_VERSION: &str = "1";
 
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+#[derive(
+    Clone,
+    Copy,
+    Debug,
+    PartialEq,
+    Eq,
+    Hash,
+    PartialOrd,
+    Ord,
+    Serialize,
+    Deserialize,
+    strum::EnumString,
+    strum::IntoStaticStr,
+)]
 #[serde(rename_all = "lowercase")]
+#[strum(serialize_all = "lowercase")]
 pub enum Split {
     Train,
     Test,
@@ -43,18 +57,11 @@ pub enum Split {
 
 impl Split {
     pub fn as_str(self) -> &'static str {
-        match self {
-            Split::Train => "train",
-            Split::Test => "test",
-        }
+        self.into()
     }
 
     pub fn parse(s: &str) -> Option<Split> {
-        match s {
-            "train" => Some(Split::Train),
-            "test" => Some(Split::Test),
-            _ => None,
-        }
+        s.parse().ok()
     }
 }
 
@@ -424,5 +431,15 @@ mod tests {
             FramesTable::read_parquet(&p),
             Err(TableError::Polars { .. })
         ));
+    }
+
+    #[test]
+    fn split_serde_and_strum_names_agree() {
+        for split in [Split::Train, Split::Test] {
+            let json = serde_json::to_string(&split).unwrap();
+            assert_eq!(json, format!("\"{}\"", split.as_str()));
+            assert_eq!(Split::parse(split.as_str()), Some(split));
+        }
+        assert_eq!(Split::parse("Train"), None);
     }
 }

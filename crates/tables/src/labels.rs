@@ -56,8 +56,20 @@ pub const POSE_SOURCE_KEY: &str = "pl2map.labels.pose_source";
 pub const LINE_TRACKS_KEY: &str = "pl2map.labels.line_tracks";
 
 /// Where the 3D labels come from.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[derive(
+    Clone,
+    Copy,
+    Debug,
+    PartialEq,
+    Eq,
+    Hash,
+    Serialize,
+    Deserialize,
+    strum::EnumString,
+    strum::IntoStaticStr,
+)]
 #[serde(rename_all = "kebab-case")]
+#[strum(serialize_all = "kebab-case")]
 pub enum LabelSource {
     /// COLMAP points and LIMAP tracks as triangulated.
     Sfm,
@@ -69,26 +81,36 @@ pub enum LabelSource {
 
 impl LabelSource {
     pub fn as_str(self) -> &'static str {
-        match self {
-            LabelSource::Sfm => "sfm",
-            LabelSource::DepthRefined => "depth-refined",
-            LabelSource::SyntheticExact => "synthetic-exact",
-        }
+        self.into()
     }
 
     pub fn parse(s: &str) -> Option<Self> {
-        match s {
-            "sfm" => Some(LabelSource::Sfm),
-            "depth-refined" => Some(LabelSource::DepthRefined),
-            "synthetic-exact" => Some(LabelSource::SyntheticExact),
-            _ => None,
-        }
+        s.parse().ok()
     }
 }
 
 /// Which pose (and camera) the labels were computed with.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[derive(
+    Clone,
+    Copy,
+    Debug,
+    Default,
+    PartialEq,
+    Eq,
+    Hash,
+    Serialize,
+    Deserialize,
+    strum::Display,
+    strum::EnumString,
+    strum::IntoStaticStr,
+    strum::VariantNames,
+)]
 #[serde(rename_all = "lowercase")]
+#[strum(
+    serialize_all = "lowercase",
+    parse_err_ty = String,
+    parse_err_fn = unknown_pose_source
+)]
 pub enum PoseSource {
     /// The SfM model's pose and camera (the reference implementation's choice).
     #[default]
@@ -99,32 +121,18 @@ pub enum PoseSource {
 
 impl PoseSource {
     pub fn as_str(self) -> &'static str {
-        match self {
-            PoseSource::Sfm => "sfm",
-            PoseSource::Dataset => "dataset",
-        }
+        self.into()
     }
 
     pub fn parse(s: &str) -> Option<Self> {
-        match s {
-            "sfm" => Some(PoseSource::Sfm),
-            "dataset" => Some(PoseSource::Dataset),
-            _ => None,
-        }
+        s.parse().ok()
     }
 }
 
-impl std::fmt::Display for PoseSource {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(self.as_str())
-    }
-}
-
-impl std::str::FromStr for PoseSource {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        PoseSource::parse(s).ok_or_else(|| format!("expected sfm or dataset, got {s:?}"))
-    }
+/// The parse error, naming the accepted sources.
+fn unknown_pose_source(s: &str) -> String {
+    use strum::VariantNames;
+    format!("expected {}, got {s:?}", PoseSource::VARIANTS.join(" or "))
 }
 
 #[derive(Clone, Debug, PartialEq)]
@@ -708,5 +716,34 @@ mod tests {
         write_parquet(&dir.path().join(LINES_FILE), &mut df, other.metadata()).unwrap();
         let e = LabelTables::read(dir.path()).unwrap_err().to_string();
         assert!(e.contains("not from one run"), "{e}");
+    }
+
+    #[test]
+    fn label_source_serde_and_strum_names_agree() {
+        for source in [
+            LabelSource::Sfm,
+            LabelSource::DepthRefined,
+            LabelSource::SyntheticExact,
+        ] {
+            let json = serde_json::to_string(&source).unwrap();
+            assert_eq!(json, format!("\"{}\"", source.as_str()));
+            assert_eq!(LabelSource::parse(source.as_str()), Some(source));
+        }
+        assert_eq!(LabelSource::parse("depth_refined"), None);
+    }
+
+    #[test]
+    fn pose_source_serde_and_strum_names_agree() {
+        for source in [PoseSource::Sfm, PoseSource::Dataset] {
+            let json = serde_json::to_string(&source).unwrap();
+            assert_eq!(json, format!("\"{source}\""));
+            assert_eq!(source.as_str(), source.to_string());
+            assert_eq!(source.to_string().parse::<PoseSource>(), Ok(source));
+            assert_eq!(PoseSource::parse(source.as_str()), Some(source));
+        }
+        assert_eq!(
+            "SfM".parse::<PoseSource>(),
+            Err("expected sfm or dataset, got \"SfM\"".to_string())
+        );
     }
 }

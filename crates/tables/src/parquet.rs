@@ -2,6 +2,7 @@
 //! key-value metadata, and column accessors that turn a missing column, a wrong type or
 //! a null into an error naming the file, the column and the row.
 
+use fileio::IoResultExt;
 /// The polars this helper is built with, for crates that build their own tables (one
 /// polars in the workspace).
 pub use polars;
@@ -13,12 +14,8 @@ use thiserror::Error;
 
 #[derive(Debug, Error)]
 pub enum TableError {
-    #[error("{path}: {source}")]
-    Io {
-        path: PathBuf,
-        #[source]
-        source: std::io::Error,
-    },
+    #[error(transparent)]
+    Io(#[from] fileio::IoError),
     #[error("{path}: parquet: {source}")]
     Polars {
         path: PathBuf,
@@ -66,20 +63,14 @@ pub fn write_parquet(
             path: path.to_path_buf(),
             source,
         })?;
-    out.flush().map_err(|source| TableError::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
+    out.flush().at(path)?;
     out.commit()?;
     Ok(())
 }
 
 /// Reads a parquet file and its key-value metadata.
 pub fn read_parquet(path: &Path) -> Result<(DataFrame, BTreeMap<String, String>), TableError> {
-    let file = std::fs::File::open(path).map_err(|source| TableError::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
+    let file = std::fs::File::open(path).at(path)?;
     let polars_err = |source| TableError::Polars {
         path: path.to_path_buf(),
         source,

@@ -11,6 +11,7 @@
 
 use crate::config::TrainConfig;
 use crate::error::{TrainError, io_err};
+use crate::step::Pl2MapOptimizer;
 use model::burn::module::{Module, ModuleVisitor, Param, ParamId};
 use model::burn::optim::Optimizer;
 use model::burn::record::{
@@ -18,7 +19,6 @@ use model::burn::record::{
 };
 use model::burn::tensor::Tensor;
 use model::burn::tensor::backend::{AutodiffBackend, Backend};
-use model::step::Pl2MapOptimizer;
 use model::{Pl2Map, Pl2MapBackend};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -184,7 +184,7 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), TrainError> {
     f.write_all(bytes).map_err(io_err(&tmp))?;
     f.sync_all().map_err(io_err(&tmp))?;
     drop(f);
-    std::fs::rename(&tmp, path).map_err(io_err(path))
+    Ok(std::fs::rename(&tmp, path).map_err(io_err(path))?)
 }
 
 impl CheckpointFile {
@@ -276,7 +276,7 @@ impl CheckpointFile {
             Recorder::<B>::load(&Rec::default(), self.optimizer.clone(), device)
                 .map_err(|e| ck_err(&self.path, format!("optimiser state: {e}")))?;
         Ok(Some(
-            model::step::new_optimizer::<B>().load_record(record.0.into_iter().collect()),
+            crate::step::new_optimizer::<B>().load_record(record.0.into_iter().collect()),
         ))
     }
 }

@@ -3,12 +3,27 @@
 
 use crate::augment::AugmentConfig;
 use crate::error::TrainError;
-use crate::sample::Limits;
 use features::FrontEndConfig;
-use model::bf16_products::Products;
 use model::{Device, LossConfig, ModelConfig};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
+
+/// Per-sample limits (the rest is subsampled, seeded).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Limits {
+    pub max_keypoints: usize,
+    pub max_lines: usize,
+}
+
+impl Default for Limits {
+    fn default() -> Self {
+        Limits {
+            max_keypoints: 1024,
+            max_lines: 128,
+        }
+    }
+}
 
 /// The shape of the learning-rate decay.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -54,7 +69,7 @@ pub struct TrainConfig {
     pub batch_frames: usize,
     /// Gradient groups per step: the step's images split into this many groups whose
     /// forward and backward passes run side by side on the CPU's cores (one after
-    /// another on a GPU), their gradients summed (model's `groups.rs`). 1: one stacked
+    /// another on a GPU), their gradients summed (`crates/train/src/step/groups.rs`). 1: one stacked
     /// pass. On 2 cores two groups make the main job's step about a third faster: its
     /// products are too small for two threads to share one. Part of the result, not a
     /// speed setting: a group sums its own rows, so the grouping changes the rounding
@@ -63,18 +78,6 @@ pub struct TrainConfig {
     #[serde(skip_serializing_if = "is_one")]
     #[arg(long, default_value_t = TrainConfig::default().batch_groups)]
     pub batch_groups: usize,
-    /// How the training passes compute their matrix products: `f32` (the reference's)
-    /// or `bf16` (operands rounded to bf16, sums in f32: mixed precision) for products
-    /// whose dimensions are all at least 32 (the dense layers' hidden products; output
-    /// layers stay f32). On CPUs with AMX (Intel Sapphire Rapids and later) they run on
-    /// its tiles, about three times as fast; elsewhere gemm multiplies the rounded
-    /// operands, slower than f32. Part of the result. Weights, optimiser and predictions
-    /// stay f32 (model's `bf16_products.rs`; docs/performance.md, "bf16 products on AMX
-    /// tiles").
-    // Written only when not f32: records of runs made before it existed hold.
-    #[serde(skip_serializing_if = "is_f32")]
-    #[arg(long, default_value_t = TrainConfig::default().products)]
-    pub products: Products,
     #[arg(long, default_value_t = TrainConfig::default().learning_rate)]
     /// Adam's learning rate at the start.
     pub learning_rate: f64,
@@ -136,10 +139,6 @@ fn is_zero(v: &usize) -> bool {
     *v == 0
 }
 
-fn is_f32(v: &Products) -> bool {
-    *v == Products::F32
-}
-
 fn is_one(v: &usize) -> bool {
     *v == 1
 }
@@ -174,7 +173,6 @@ impl Default for TrainConfig {
             iterations: 10_000,
             batch_frames: 1,
             batch_groups: 1,
-            products: Products::F32,
             learning_rate: 3e-4,
             lr_schedule: LrSchedule::Steps,
             lr_halvings: 7,
@@ -240,14 +238,6 @@ impl TrainConfig {
             return bad(format!(
                 "batch_groups must be between 1 and batch_frames ({}), got {}",
                 self.batch_frames, self.batch_groups
-            ));
-        }
-        if self.products != Products::F32 && !self.device.is_cpu() {
-            // The bf16 products are the CPU kernels' (model's `bf16_products.rs`); a GPU
-            // run would silently train in f32.
-            return bad(format!(
-                "products = \"{}\" is a CPU setting; train on device {} with products = \"f32\"",
-                self.products, self.device
             ));
         }
         if !(self.learning_rate.is_finite() && self.learning_rate > 0.0) {
@@ -427,30 +417,6 @@ mod tests {
                 "{e}"
             );
         }
-    }
-
-    /// `products` defaults to f32 and is written only when not, so the records (and the
-    /// checkpoints' bytes) of f32 runs stay those of runs made before the key existed;
-    /// bf16 is part of the record; anything else is refused with the choices.
-    #[test]
-    fn products_default_to_f32_and_are_written_only_when_not() {
-        let text = TrainConfig::default().to_toml();
-        assert!(!text.contains("products"), "{text}");
-        let c: TrainConfig = toml::from_str("products = \"bf16\"").unwrap();
-        assert_eq!(c.products, Products::Bf16);
-        assert!(c.to_toml().contains("products = \"bf16\""));
-        assert_eq!(c.for_record().products, Products::Bf16);
-        let e = toml::from_str::<TrainConfig>("products = \"f16\"")
-            .unwrap_err()
-            .to_string();
-        assert!(e.contains("f32") && e.contains("bf16"), "{e}");
-        let gpu = TrainConfig {
-            products: Products::Bf16,
-            device: Device::Cuda(0),
-            ..Default::default()
-        };
-        let e = gpu.validate().unwrap_err().to_string();
-        assert!(e.contains("products") && e.contains("CPU"), "{e}");
     }
 
     #[test]

@@ -31,11 +31,8 @@ pub enum TrainError {
     Model(#[from] model::ModelError),
     #[error("checkpoint {path}: {reason}")]
     Checkpoint { path: PathBuf, reason: String },
-    #[error("{path}: {source}")]
-    Io {
-        path: PathBuf,
-        source: std::io::Error,
-    },
+    #[error(transparent)]
+    Io(#[from] fileio::IoError),
     #[error("the frame stream's background thread stopped: {0}")]
     Stream(String),
     #[error("image: {0}")]
@@ -44,7 +41,5 @@ pub enum TrainError {
     Stage(#[from] stage::StageError),
 }
 
-pub(crate) fn io_err(path: impl Into<PathBuf>) -> impl FnOnce(std::io::Error) -> TrainError {
-    let path = path.into();
-    move |source| TrainError::Io { path, source }
-}
+/// `.map_err(io_err(&path))?` (the workspace's one IO error, crates/fileio).
+pub(crate) use fileio::io_err;

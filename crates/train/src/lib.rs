@@ -6,6 +6,8 @@
 //!   keypoints, segments, intrinsics and pose follow the image (docs/method.md section 5).
 //! - [`sample`]: shard frame (+ augmentation) -> [`model::Sample`], descriptors re-sampled
 //!   on the augmented image, per-sample limits.
+//! - [`step`]: one training step (forward, loss, backward, the fused Adam), its gradient
+//!   groups side by side on the CPU's cores.
 //! - [`trainer`]: the loop (Adam, learning rate halved k times), atomic checkpoints with an
 //!   exact `--resume`, `--init` warm starts, metrics CSV, progress bar, loss plot.
 //! - [`predict`]: [`Predictor`], the front-end + network on one query image.
@@ -20,17 +22,17 @@ pub mod plot;
 pub mod predict;
 pub mod sample;
 pub mod seeds;
+pub mod step;
 pub mod stream;
 #[cfg(test)]
 mod testutil;
 pub mod train_stage;
 pub mod trainer;
 
-pub use config::{LrSchedule, TrainConfig};
+pub use config::{Limits, LrSchedule, TrainConfig};
 pub use error::TrainError;
 /// Where a run trains or predicts (`--device cpu|cuda[:N]`).
 pub use model::Device;
 pub use predict::{ImagePrediction, PredictedLine, PredictedPoint, Predictor};
-pub use sample::Limits;
 pub use train_stage::{TrainOutput, TrainStageOptions};
 pub use trainer::{MeanLosses, RunOptions, TrainSummary, train, train_on};

@@ -121,7 +121,7 @@ impl MetricsWriter {
 
     pub fn append(&mut self, row: &MetricsRow) -> Result<(), TrainError> {
         writeln!(self.file, "{}", row.to_csv()).map_err(io_err(&self.path))?;
-        self.file.flush().map_err(io_err(&self.path))
+        Ok(self.file.flush().map_err(io_err(&self.path))?)
     }
 
     pub fn path(&self) -> &Path {
@@ -138,16 +138,15 @@ pub fn read_columns(path: &Path, names: &[&str]) -> Result<Vec<Vec<f64>>, TrainE
     let idx: Vec<usize> = names
         .iter()
         .map(|n| {
-            header
-                .iter()
-                .position(|h| h == n)
-                .ok_or_else(|| TrainError::Io {
-                    path: path.to_path_buf(),
-                    source: std::io::Error::new(
+            header.iter().position(|h| h == n).ok_or_else(|| {
+                TrainError::Io(fileio::IoError::new(
+                    path,
+                    std::io::Error::new(
                         std::io::ErrorKind::InvalidData,
                         format!("no column {n:?}"),
                     ),
-                })
+                ))
+            })
         })
         .collect::<Result<_, _>>()?;
     let mut out = vec![Vec::new(); names.len()];

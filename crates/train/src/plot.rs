@@ -6,15 +6,15 @@
 //! tick labels, a decade grid with 2..9 minor lines, and a legend under the chart: total
 //! (black), L_m points (blue), L_m lines (cyan), L_r for points + lines (green), L_pi for
 //! points + lines once it is on (red). Drawn by plotters into an RGB buffer, text with
-//! the embedded font of the `canvas` module below, encoded by `image`: the same metrics
-//! give the same bytes.
+//! the plot crate's embedded font, the chart's frame as the CDF plot's
+//! (crates/plot/src/frame.rs), encoded by `image`: the same metrics give the same bytes.
 
 use crate::checkpoint::write_atomic;
 use crate::error::{TrainError, io_err};
 use crate::metrics::read_columns;
 use image::RgbImage;
 use plot::plotters::prelude::*;
-use plot::{Canvas, draw_err};
+use plot::{FrameStyle, TEXT, draw_err};
 use std::path::Path;
 
 pub const PLOT_FILE: &str = "losses.png";
@@ -27,11 +27,19 @@ pub const HEIGHT: u32 = 660;
 /// Height of the legend strip under the chart.
 const LEGEND_H: u32 = 48;
 
-/// The font family named in text styles (the canvas has one font: any name draws it).
-const FONT: &str = plot::FONT;
-const TEXT: RGBColor = RGBColor(30, 30, 30);
-const DECADE_GRID: RGBColor = RGBColor(200, 200, 200);
-const MINOR_GRID: RGBColor = RGBColor(236, 236, 236);
+/// The chart's frame.
+const FRAME: FrameStyle = FrameStyle {
+    caption_px: 24,
+    margin_top: 12,
+    margin_bottom: 0,
+    margin_left: 14,
+    margin_right: 36,
+    x_label_area: 58,
+    y_label_area: 84,
+    tick_label_px: 16,
+    axis_desc_px: 18,
+    major_grid: RGBColor(200, 200, 200),
+};
 
 /// The curves of [`plot_metrics`], in legend order.
 pub const CURVES: [(&str, RGBColor); 5] = [
@@ -75,16 +83,6 @@ fn window(rows: usize) -> usize {
     (rows / 100).max(1)
 }
 
-/// A tick label of the power of ten `v`.
-fn decade_label(v: f64) -> String {
-    let e = v.log10().round() as i32;
-    match e {
-        0..=5 => format!("{}", 10u64.pow(e as u32)),
-        -4..=-1 => format!("{:.*}", (-e) as usize, 10f64.powi(e)),
-        _ => format!("1e{e}"),
-    }
-}
-
 /// The runs of drawable points of one curve: (iteration, value) with a finite, positive
 /// value; a missing or non-positive value breaks the curve.
 fn runs(iterations: &[u64], values: &[f64]) -> Vec<Vec<(u64, f64)>> {
@@ -119,10 +117,7 @@ pub fn render(iterations: &[u64], series: &[Series]) -> Result<RgbImage, String>
         (true, true) => (lo as i32, lo as i32 + 1),
         _ => (0, 1),
     };
-    let decades: Vec<f64> = (lo..=hi).map(|e| 10f64.powi(e)).collect();
-    let minors: Vec<f64> = (lo..hi)
-        .flat_map(|e| (2..10).map(move |m| f64::from(m) * 10f64.powi(e)))
-        .collect();
+    let (decades, minors) = plot::log_ticks(lo, hi);
     // Iteration i is the state after i steps: the axis starts at the one before the first row.
     let first = iterations
         .iter()
@@ -132,43 +127,30 @@ pub fn render(iterations: &[u64], series: &[Series]) -> Result<RgbImage, String>
         .saturating_sub(1);
     let last = iterations.iter().copied().max().unwrap_or(1).max(first + 1);
 
-    let mut buf = vec![255u8; WIDTH as usize * HEIGHT as usize * 3];
-    {
-        let root = Canvas::new(&mut buf, (WIDTH, HEIGHT))?.into_drawing_area();
-        root.fill(&WHITE).map_err(draw_err)?;
+    plot::draw_rgb(WIDTH, HEIGHT, |root| {
         let (top, bottom) = root.split_vertically(HEIGHT - LEGEND_H);
         let title = if w > 1 {
             format!("Training losses (moving averages over {w} iterations)")
         } else {
             "Training losses".to_string()
         };
-        let mut chart = ChartBuilder::on(&top)
-            .caption(title, (FONT, 24).into_font().color(&TEXT))
-            .margin_top(12)
-            .margin_left(14)
-            .margin_right(36)
-            .x_label_area_size(58)
-            .y_label_area_size(84)
-            .build_cartesian_2d(
-                first..last,
-                (10f64.powi(lo)..10f64.powi(hi))
-                    .log_scale()
-                    .with_key_points(decades)
-                    .with_light_points(minors),
-            )
-            .map_err(draw_err)?;
-        chart
-            .configure_mesh()
+        let mut chart = FRAME.chart(
+            &top,
+            &title,
+            first..last,
+            (10f64.powi(lo)..10f64.powi(hi))
+                .log_scale()
+                .with_key_points(decades)
+                .with_light_points(minors),
+        )?;
+        let y_label = |v: &f64| plot::decade_label(*v);
+        FRAME
+            .mesh(&mut chart)
             .x_desc("iteration")
             .y_desc("loss (log scale)")
             .x_labels(11)
             .x_max_light_lines(1)
-            .y_label_formatter(&|v| decade_label(*v))
-            .label_style((FONT, 16).into_font().color(&TEXT))
-            .axis_desc_style((FONT, 18).into_font().color(&TEXT))
-            .bold_line_style(DECADE_GRID)
-            .light_line_style(MINOR_GRID)
-            .axis_style(TEXT)
+            .y_label_formatter(&y_label)
             .draw()
             .map_err(draw_err)?;
         // The first series (the total) thicker and last, on top of its parts.
@@ -192,10 +174,8 @@ pub fn render(iterations: &[u64], series: &[Series]) -> Result<RgbImage, String>
             spacing: 36,
             text: TEXT,
         };
-        plot::legend(&bottom, &entries, &style)?;
-        root.present().map_err(draw_err)?;
-    }
-    RgbImage::from_raw(WIDTH, HEIGHT, buf).ok_or_else(|| "plot buffer of the wrong size".into())
+        plot::legend(&bottom, &entries, &style)
+    })
 }
 
 /// The PNG of the loss columns of a metrics file.
@@ -247,7 +227,7 @@ fn png_bytes(metrics: &Path) -> Result<Vec<u8>, TrainError> {
 pub fn plot_metrics(metrics: &Path, out: &Path) -> Result<(), TrainError> {
     let bytes = png_bytes(metrics)?;
     write_atomic(out, &bytes).map_err(|e| match e {
-        TrainError::Io { source, .. } => io_err(out)(source),
+        TrainError::Io(e) => TrainError::Io(io_err(out)(e.source)),
         other => other,
     })
 }
@@ -374,9 +354,10 @@ mod tests {
         assert_eq!(a[1], 1.0);
         assert_eq!(a[2], 3.0);
         assert_eq!(a[3], 4.0);
-        assert_eq!(decade_label(0.01), "0.01");
-        assert_eq!(decade_label(100.0), "100");
-        assert_eq!(decade_label(1e-7), "1e-7");
+        // The loss axis's labels (crates/plot/src/frame.rs).
+        assert_eq!(plot::decade_label(0.01), "0.01");
+        assert_eq!(plot::decade_label(100.0), "100");
+        assert_eq!(plot::decade_label(1e-7), "1e-7");
     }
 
     /// Writes a sample plot for a person to look at:

@@ -232,7 +232,7 @@ pub fn query_front_end_on(
     {
         fe.superpoint.weights = Some(env.into());
     }
-    Ok(superpoint::front_end_on(&fe, device.gpu())?)
+    Ok(frontends::build_on(&fe, device.gpu())?)
 }
 
 #[cfg(test)]

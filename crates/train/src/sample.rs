@@ -9,31 +9,14 @@
 //! along each segment (lines): exactly what the predictor computes at query time.
 
 use crate::augment::{self, AugmentConfig, AugmentParams};
+pub use crate::config::Limits;
 use crate::error::TrainError;
 use features::FrontEnd;
 use geometry::{Camera, Pose};
 use image::GrayImage;
 use rand::Rng;
-use serde::{Deserialize, Serialize};
 use shards::FrameRecord;
 use std::sync::{Arc, RwLock};
-
-/// Per-sample limits (the rest is subsampled, seeded).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct Limits {
-    pub max_keypoints: usize,
-    pub max_lines: usize,
-}
-
-impl Default for Limits {
-    fn default() -> Self {
-        Limits {
-            max_keypoints: 1024,
-            max_lines: 128,
-        }
-    }
-}
 
 /// A training sample and what was done to the frame to make it.
 #[derive(Clone, Debug)]

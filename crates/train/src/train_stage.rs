@@ -274,6 +274,6 @@ fn remove_if_exists(path: &Path) -> Result<(), TrainError> {
     match std::fs::remove_file(path) {
         Ok(()) => Ok(()),
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(()),
-        Err(e) => Err(io_err(path)(e)),
+        Err(e) => Err(io_err(path)(e).into()),
     }
 }

@@ -19,12 +19,13 @@ use crate::config::TrainConfig;
 use crate::error::{TrainError, io_err};
 use crate::metrics::{MetricsRow, MetricsWriter};
 use crate::plot::{PLOT_FILE, plot_metrics};
-use crate::sample::{DescriptorCache, label_centre, prepare_with_cache, recentre};
+use crate::sample::{DescriptorCache, Prepared, label_centre, prepare_with_cache, recentre};
 use crate::seeds::{self, Purpose};
+use crate::step::{StepOptions, TrainState};
 use crate::stream::{FrameStream, StreamConfig};
 use indicatif::ProgressBar;
 use model::burn::tensor::backend::AutodiffBackend;
-use model::{Device, LossValues, Pl2MapBackend, StepOptions, TrainState};
+use model::{Device, LossValues, Pl2MapBackend};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
@@ -136,133 +137,31 @@ pub fn train_on<B: AutodiffBackend<InnerBackend: Pl2MapBackend> + Pl2MapBackend>
     let out = &options.out_dir;
     std::fs::create_dir_all(out).map_err(io_err(out))?;
     let ckpt_path = out.join(CHECKPOINT_FILE);
-
-    // The run's configuration, network and optimiser.
-    let (config, state, start, centre) = if options.resume {
-        let ck = CheckpointFile::read(&ckpt_path)?;
-        let centre = ck.header.scene_centre;
-        let mut cfg = ck.header.config.clone();
-        if let Some(n) = options.iterations {
-            cfg.iterations = n;
-        }
-        // Where and with how many workers this process runs is the caller's choice, not
-        // the checkpoint's: a run started on a GPU may finish on the CPU.
-        cfg.device = config.device;
-        cfg.workers = config.workers;
-        let model = ck.model::<B>(device)?;
-        let optimizer = ck
-            .optimizer::<B>(device)?
-            .ok_or_else(|| TrainError::Checkpoint {
-                path: ckpt_path.clone(),
-                reason: "holds no optimiser state: cannot resume from it".into(),
-            })?;
-        let state = TrainState::from_parts(model, optimizer, cfg.loss.clone())?;
-        (cfg, state, ck.header.iteration, centre)
+    let start = if options.resume {
+        resumed_state::<B>(config, &ckpt_path, options, device)?
     } else {
-        if ckpt_path.exists() {
-            return Err(TrainError::Config(format!(
-                "{} already exists: pass --resume to continue that run, or use another folder",
-                ckpt_path.display()
-            )));
-        }
-        let mut cfg = config;
-        if let Some(n) = options.iterations {
-            cfg.iterations = n;
-        }
-        cfg.validate()?;
-        let (state, centre) = match &options.init {
-            Some(path) => {
-                let ck = CheckpointFile::read(path)?;
-                if ck.header.config.model != cfg.model {
-                    return Err(TrainError::Checkpoint {
-                        path: path.clone(),
-                        reason: format!(
-                            "its network ({:?}) is not the configured one ({:?})",
-                            ck.header.config.model, cfg.model
-                        ),
-                    });
-                }
-                // The warm-started network predicts in its own coordinates.
-                (
-                    TrainState::new(ck.model::<B>(device)?, cfg.loss.clone())?,
-                    ck.header.scene_centre,
-                )
-            }
-            None => (
-                TrainState::init(&cfg.model, cfg.loss.clone(), cfg.seed, device)?,
-                label_centre(shards)?,
-            ),
-        };
-        (cfg, state, 0, centre)
+        fresh_state::<B>(config, &ckpt_path, shards, options, device)?
     };
+    let Start {
+        config,
+        mut state,
+        iteration: start,
+        centre,
+    } = start;
     config.validate()?;
     // The front-end describes every training sample. Its configuration as built (for
     // SuperPoint: with the weights file's sha256) is what the checkpoints record, so the
     // predictor and a resumed run use the same weights or refuse to start.
     // SuperPoint runs on the training device (SIFT and LSD on the CPU).
-    let front_end = superpoint::front_end_on(&config.front_end, config.device.gpu())?;
+    let front_end = frontends::build_on(&config.front_end, config.device.gpu())?;
     let mut config = config;
     config.front_end = front_end.config().clone();
     write_atomic(&out.join(CONFIG_FILE), config.to_toml().as_bytes())?;
-    let mut state = state;
     // Gradient groups run side by side on the CPU's threads; on a GPU one thread queues
     // them one after another (the same weights either way).
     let group_threads = config.device.is_cpu().then(rayon::current_num_threads);
     state.set_batch_groups(config.batch_groups, group_threads)?;
-    state.set_products(config.products);
-    if config.products == model::bf16_products::Products::Bf16 {
-        if model::bf16_products::on_amx() {
-            tracing::info!("bf16 products on AMX tiles");
-        } else {
-            tracing::warn!(
-                "bf16 products without AMX (this CPU or kernel has none): gemm multiplies \
-                 the rounded operands, slower than products = \"f32\""
-            );
-        }
-    }
-
-    let stream_cfg = StreamConfig {
-        shuffle_buffer: config.shuffle_buffer,
-        // A step takes `batch_frames` samples at once: a smaller queue would leave the
-        // reader idle during the step and the step waiting for it at the next one.
-        prefetch: config.prefetch.max(2 * config.batch_frames),
-        seed: config.seed,
-        chunk_cache_bytes: (config.chunk_cache_mib as u64) << 20,
-        workers: config.sample_workers(),
-    };
-    let (fe, aug, limits, seed) = (
-        front_end,
-        config.augment.clone(),
-        config.limits.clone(),
-        config.seed,
-    );
-    let batch = config.batch_frames as u64;
-    let cache = Arc::new(DescriptorCache::new(config.descriptor_cache_mib));
-    // Unaugmented samples take their descriptors from the cache: fill it up front on
-    // every core instead of one frame at a time on the reader thread during the first
-    // epoch (about 100 s of a 15-minute CPU run on the synthetic scene). Results do not
-    // depend on it.
-    if config.descriptor_cache_mib > 0 && config.augment.probability < 1.0 {
-        let bar = progress_bar(0, 0, options.progress);
-        bar.set_message("describing frames for the descriptor cache");
-        cache.prefill(shards, fe.as_ref(), &bar)?;
-        bar.finish_and_clear();
-    }
-    // Runs on the sample workers: a sample's randomness is its stream position's, so
-    // the samples do not depend on which worker prepares them or how many there are.
-    let mut stream = FrameStream::start(shards, stream_cfg, start * batch, move |at, frame| {
-        let mut rng = seeds::rng(seed, Purpose::Sample, at.position);
-        let mut p = prepare_with_cache(
-            &frame,
-            fe.as_ref(),
-            Some(&aug),
-            &limits,
-            &mut rng,
-            Some(&cache),
-        )?;
-        recentre(&mut p.sample, &centre);
-        Ok(p)
-    })?;
+    let mut stream = sample_stream(&config, shards, front_end, centre, start, options.progress)?;
     let frames_per_epoch = stream.frames_per_epoch();
     // On the CPU the stream refills while Adam runs, not while the groups want the cores
     // (stream.rs, `hold_places`); on a GPU it refills at once, as the device waits on it.
@@ -289,27 +188,20 @@ pub fn train_on<B: AutodiffBackend<InnerBackend: Pl2MapBackend> + Pl2MapBackend>
         optimizer_hash: String::new(),
     };
     let mut killed = false;
-    // Steps run on threads that flush denormals (see model::denormals): up to 40 % faster
-    // on Intel cores once the optimiser's moments underflow.
-    let pool = model::denormals::flushing_pool()
+    // Steps run on threads that flush denormals (crates/kernels/src/denormals.rs): up to
+    // 40 % faster on Intel cores once the optimiser's moments underflow.
+    let pool = kernels::denormals::flushing_pool()
         .map_err(|e| TrainError::Config(format!("starting the training threads: {e}")))?;
-    // Steps reuse freed buffers instead of mapping fresh pages for each (model's alloc.rs).
-    model::alloc::keep_freed_memory();
+    // Steps reuse freed buffers instead of mapping fresh pages for each
+    // (crates/kernels/src/alloc.rs).
+    kernels::alloc::keep_freed_memory();
     for i in start..config.iterations {
         if options.stop_after.is_some_and(|s| i >= s) {
             killed = true;
             break;
         }
         let t = Instant::now();
-        let mut samples = Vec::with_capacity(config.batch_frames);
-        let mut frame_id = 0;
-        for k in 0..config.batch_frames {
-            let (_, p) = stream.next_item()?;
-            if k == 0 {
-                frame_id = p.frame_id;
-            }
-            samples.push(p.sample);
-        }
+        let (samples, frame_id) = next_batch(&mut stream, config.batch_frames)?;
         let data_seconds = t.elapsed().as_secs_f64();
         let lr = config.learning_rate_at(i);
         let step = StepOptions {
@@ -326,25 +218,15 @@ pub fn train_on<B: AutodiffBackend<InnerBackend: Pl2MapBackend> + Pl2MapBackend>
             skipped += 1;
         }
         done = i + 1;
-        let row = MetricsRow {
-            iteration: done,
+        let timing = (t.elapsed().as_secs_f64(), data_seconds);
+        metrics.append(&metrics_row(
+            done,
             frame_id,
-            losses: report.losses,
+            &samples,
+            report.losses,
             lr,
-            keypoints: samples.iter().map(|s| s.keypoints.len()).sum(),
-            labelled_points: samples
-                .iter()
-                .map(|s| s.point_valid.iter().filter(|v| **v).count())
-                .sum(),
-            lines: samples.iter().map(|s| s.segments.len()).sum(),
-            labelled_lines: samples
-                .iter()
-                .map(|s| s.line_valid.iter().filter(|v| **v).count())
-                .sum(),
-            seconds: t.elapsed().as_secs_f64(),
-            data_seconds,
-        };
-        metrics.append(&row)?;
+            timing,
+        ))?;
         if recent.len() == 100 {
             recent.remove(0);
         }
@@ -400,7 +282,195 @@ pub fn train_on<B: AutodiffBackend<InnerBackend: Pl2MapBackend> + Pl2MapBackend>
     })
 }
 
-/// The parameters of a checkpoint's network as f32 bytes (see
+/// Where a run starts: its configuration, network and optimiser, iteration and the scene
+/// centre its network predicts around.
+struct Start<B: AutodiffBackend<InnerBackend: Pl2MapBackend> + Pl2MapBackend> {
+    config: TrainConfig,
+    state: TrainState<B>,
+    iteration: u64,
+    centre: [f64; 3],
+}
+
+/// `--resume`: the checkpoint's configuration, weights, optimiser and iteration. Where
+/// and with how many workers this process runs is the caller's choice, not the
+/// checkpoint's: a run started on a GPU may finish on the CPU.
+fn resumed_state<B: AutodiffBackend<InnerBackend: Pl2MapBackend> + Pl2MapBackend>(
+    config: TrainConfig,
+    ckpt_path: &Path,
+    options: &RunOptions,
+    device: &B::Device,
+) -> Result<Start<B>, TrainError> {
+    let ck = CheckpointFile::read(ckpt_path)?;
+    let mut cfg = ck.header.config.clone();
+    if let Some(n) = options.iterations {
+        cfg.iterations = n;
+    }
+    cfg.device = config.device;
+    cfg.workers = config.workers;
+    let model = ck.model::<B>(device)?;
+    let optimizer = ck
+        .optimizer::<B>(device)?
+        .ok_or_else(|| TrainError::Checkpoint {
+            path: ckpt_path.to_path_buf(),
+            reason: "holds no optimiser state: cannot resume from it".into(),
+        })?;
+    let state = TrainState::from_parts(model, optimizer, cfg.loss.clone())?;
+    Ok(Start {
+        config: cfg,
+        state,
+        iteration: ck.header.iteration,
+        centre: ck.header.scene_centre,
+    })
+}
+
+/// A new run: fresh weights from the seed (centred on the training labels), or the
+/// weights of `--init` (a warm start, in that network's own coordinates); the optimiser
+/// starts fresh either way.
+fn fresh_state<B: AutodiffBackend<InnerBackend: Pl2MapBackend> + Pl2MapBackend>(
+    config: TrainConfig,
+    ckpt_path: &Path,
+    shards: &[PathBuf],
+    options: &RunOptions,
+    device: &B::Device,
+) -> Result<Start<B>, TrainError> {
+    if ckpt_path.exists() {
+        return Err(TrainError::Config(format!(
+            "{} already exists: pass --resume to continue that run, or use another folder",
+            ckpt_path.display()
+        )));
+    }
+    let mut cfg = config;
+    if let Some(n) = options.iterations {
+        cfg.iterations = n;
+    }
+    cfg.validate()?;
+    let (state, centre) = match &options.init {
+        Some(path) => {
+            let ck = CheckpointFile::read(path)?;
+            if ck.header.config.model != cfg.model {
+                return Err(TrainError::Checkpoint {
+                    path: path.clone(),
+                    reason: format!(
+                        "its network ({:?}) is not the configured one ({:?})",
+                        ck.header.config.model, cfg.model
+                    ),
+                });
+            }
+            (
+                TrainState::new(ck.model::<B>(device)?, cfg.loss.clone())?,
+                ck.header.scene_centre,
+            )
+        }
+        None => (
+            TrainState::init(&cfg.model, cfg.loss.clone(), cfg.seed, device)?,
+            label_centre(shards)?,
+        ),
+    };
+    Ok(Start {
+        config: cfg,
+        state,
+        iteration: 0,
+        centre,
+    })
+}
+
+/// The stream of training samples from iteration `start` on: frames from the shards,
+/// augmented and described by `front_end` on the sample workers, recentred on `centre`.
+/// The configuration reaches the samples here, once.
+fn sample_stream(
+    config: &TrainConfig,
+    shards: &[PathBuf],
+    front_end: Arc<dyn features::FrontEnd>,
+    centre: [f64; 3],
+    start: u64,
+    progress: bool,
+) -> Result<FrameStream<Prepared>, TrainError> {
+    let stream_cfg = StreamConfig {
+        shuffle_buffer: config.shuffle_buffer,
+        // A step takes `batch_frames` samples at once: a smaller queue would leave the
+        // reader idle during the step and the step waiting for it at the next one.
+        prefetch: config.prefetch.max(2 * config.batch_frames),
+        seed: config.seed,
+        chunk_cache_bytes: (config.chunk_cache_mib as u64) << 20,
+        workers: config.sample_workers(),
+    };
+    let (aug, limits, seed) = (config.augment.clone(), config.limits.clone(), config.seed);
+    let batch = config.batch_frames as u64;
+    let cache = Arc::new(DescriptorCache::new(config.descriptor_cache_mib));
+    // Unaugmented samples take their descriptors from the cache: fill it up front on
+    // every core instead of one frame at a time on the reader thread during the first
+    // epoch (about 100 s of a 15-minute CPU run on the synthetic scene). Results do not
+    // depend on it.
+    if config.descriptor_cache_mib > 0 && config.augment.probability < 1.0 {
+        let bar = progress_bar(0, 0, progress);
+        bar.set_message("describing frames for the descriptor cache");
+        cache.prefill(shards, front_end.as_ref(), &bar)?;
+        bar.finish_and_clear();
+    }
+    // Runs on the sample workers: a sample's randomness is its stream position's, so
+    // the samples do not depend on which worker prepares them or how many there are.
+    FrameStream::start(shards, stream_cfg, start * batch, move |at, frame| {
+        let mut rng = seeds::rng(seed, Purpose::Sample, at.position);
+        let mut p = prepare_with_cache(
+            &frame,
+            front_end.as_ref(),
+            Some(&aug),
+            &limits,
+            &mut rng,
+            Some(&cache),
+        )?;
+        recentre(&mut p.sample, &centre);
+        Ok(p)
+    })
+}
+
+/// The next `n` samples of the stream, and the frame id of the first (the metrics row's).
+fn next_batch(
+    stream: &mut FrameStream<Prepared>,
+    n: usize,
+) -> Result<(Vec<model::Sample>, u64), TrainError> {
+    let mut samples = Vec::with_capacity(n);
+    let mut frame_id = 0;
+    for k in 0..n {
+        let (_, p) = stream.next_item()?;
+        if k == 0 {
+            frame_id = p.frame_id;
+        }
+        samples.push(p.sample);
+    }
+    Ok((samples, frame_id))
+}
+
+/// One row of `metrics.csv`; `(seconds, data_seconds)`: the step's wall time and the
+/// part of it spent waiting for samples.
+fn metrics_row(
+    iteration: u64,
+    frame_id: u64,
+    samples: &[model::Sample],
+    losses: LossValues,
+    lr: f64,
+    (seconds, data_seconds): (f64, f64),
+) -> MetricsRow {
+    MetricsRow {
+        iteration,
+        frame_id,
+        losses,
+        lr,
+        keypoints: samples.iter().map(|s| s.keypoints.len()).sum(),
+        labelled_points: samples
+            .iter()
+            .map(|s| s.point_valid.iter().filter(|v| **v).count())
+            .sum(),
+        lines: samples.iter().map(|s| s.segments.len()).sum(),
+        labelled_lines: samples
+            .iter()
+            .map(|s| s.line_valid.iter().filter(|v| **v).count())
+            .sum(),
+        seconds,
+        data_seconds,
+    }
+}
+
 /// [`crate::checkpoint::parameter_bytes`]), for comparisons.
 pub fn model_parameter_bytes(path: &Path) -> Result<Vec<u8>, TrainError> {
     let net = CheckpointFile::read(path)?.model::<model::CpuBackend>(&Default::default())?;

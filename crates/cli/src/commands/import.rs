@@ -3,7 +3,8 @@
 //! `OUT/stage.json`). The flags are those of `labels::import::ImportConfig`.
 
 use anyhow::Context;
-use labels::import::{self, ImportConfig};
+use labels::import::ImportConfig;
+use labels::import_stage;
 use std::path::PathBuf;
 
 #[derive(clap::Args, Debug)]
@@ -33,8 +34,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let mut config = args.config;
     config.front_end.kind = args.front_end;
     config.front_end.superpoint.weights = args.superpoint_weights;
-    let make = |c: &features::FrontEndConfig| superpoint::front_end(c).map_err(|e| e.to_string());
-    let done = import::run_with(&config, &args.frames, &args.out, &make).with_context(|| {
+    let make = |c: &features::FrontEndConfig| frontends::build(c).map_err(|e| e.to_string());
+    let done = import_stage::run(&config, &args.frames, &args.out, &make).with_context(|| {
         format!(
             "importing {} and {} for {}",
             config.model.clone().unwrap_or_default().display(),

@@ -2,7 +2,8 @@
 //! (`OUT/frames.parquet`, registered depth under `OUT/depth/`, `OUT/stage.json`).
 
 use anyhow::Context;
-use datasets::ingest::{self, IngestConfig};
+use datasets::ingest::IngestConfig;
+use datasets::ingest_stage;
 use std::path::PathBuf;
 use tables::frames::{FramesTable, Split};
 
@@ -17,7 +18,7 @@ pub struct Args {
 
 pub fn run(args: Args) -> anyhow::Result<()> {
     let config = args.config;
-    let done = ingest::run(&config, &args.out).with_context(|| {
+    let done = ingest_stage::run(&config, &args.out).with_context(|| {
         format!(
             "ingesting {} ({})",
             config.scene_dir().display(),

@@ -1,9 +1,3 @@
-pub mod bench;
-pub mod bench_colmap;
-pub mod bench_features;
-pub mod bench_localize;
-pub mod bench_pose;
-pub mod bench_stages;
 pub mod checkpoint;
 pub mod colmap;
 pub mod features;

@@ -22,13 +22,13 @@ pub struct Args {
     #[arg(long)]
     lines: Option<PathBuf>,
     /// Inlier threshold on point reprojection errors, pixels.
-    #[arg(long, default_value_t = 12.0)]
+    #[arg(long, default_value_t = RansacOptions::default().point_threshold_px)]
     point_threshold: f64,
     /// Inlier threshold on line errors (sum of both endpoint distances), pixels.
-    #[arg(long, default_value_t = 10.0)]
+    #[arg(long, default_value_t = RansacOptions::default().line_threshold_px)]
     line_threshold: f64,
     /// RANSAC seed (same inputs and seed, same result).
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, default_value_t = RansacOptions::default().seed)]
     seed: u64,
     /// Print one JSON object instead of text.
     #[arg(long)]
@@ -43,14 +43,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         None => Vec::new(),
     };
     let opt = RansacOptions {
-        point_threshold_px: args.point_threshold,
-        line_threshold_px: args.line_threshold,
         seed: args.seed,
-        // Cauchy scale: half the point threshold for both kinds, as the defaults
-        // (6 px for 12 px) and PoseLib.
-        point_loss_scale_px: 0.5 * args.point_threshold,
-        line_loss_scale_px: 0.5 * args.point_threshold,
-        ..RansacOptions::default()
+        ..RansacOptions::with_thresholds(args.point_threshold, args.line_threshold)
     };
     let t0 = Instant::now();
     let est = estimate_pose(&camera, &points, &lines, &opt).with_context(|| {

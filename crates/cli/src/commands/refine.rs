@@ -4,8 +4,9 @@
 
 use anyhow::Context;
 use labels::LabelTables;
-use labels::ablation::{self, ExactLabels};
-use labels::refine::{self, RefineConfig};
+use labels::label_error::{self, ExactLabels};
+use labels::refine::RefineConfig;
+use labels::refine_stage;
 use std::path::PathBuf;
 
 #[derive(clap::Args, Debug)]
@@ -31,8 +32,8 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let done =
-        refine::run(&args.config, &args.frames, &args.labels, &args.out).with_context(|| {
+    let done = refine_stage::run(&args.config, &args.frames, &args.labels, &args.out)
+        .with_context(|| {
             format!(
                 "refining {} with the depth of {}",
                 args.labels.display(),
@@ -51,7 +52,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         let after = LabelTables::read(&args.out)?;
         crate::out!(
             "{}",
-            ablation::table(&ablation::compare(&exact, &before, &after)?)
+            label_error::table(&label_error::compare(&exact, &before, &after)?)
         );
     }
     Ok(())

@@ -60,7 +60,7 @@ pub fn run(args: Args, quiet: bool) -> anyhow::Result<()> {
         p.work.display()
     );
     if args.compare_refine {
-        let a = pipeline::run_ablation(&p, &options).with_context(context)?;
+        let a = pipeline::run_compare_refine(&p, &options).with_context(context)?;
         crate::outln!("with [refine]:");
         crate::out!("{}", a.refined.table());
         crate::outln!(
@@ -82,7 +82,7 @@ pub fn run(args: Args, quiet: bool) -> anyhow::Result<()> {
             "\nscore on the {} frames ({}):\n",
             summary.split,
             p.stage_dir(pipeline::StageName::Score)
-                .join(score::run::SUMMARY_MD_FILE)
+                .join(score::scoring::SUMMARY_MD_FILE)
                 .display()
         );
         crate::out!("{}", summary.table());

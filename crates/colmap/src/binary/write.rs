@@ -4,6 +4,7 @@
 use crate::error::{ColmapError, Location, Problem, RecordRef, Table};
 use crate::model::{CameraRecord, Image, Point3D};
 use crate::rig::{Frame, Rig, RigidTransform};
+use fileio::IoResultExt;
 use std::io::Write;
 use std::path::Path;
 
@@ -14,9 +15,7 @@ struct Out<'a, W: Write> {
 
 impl<W: Write> Out<'_, W> {
     fn bytes(&mut self, b: &[u8]) -> crate::Result<()> {
-        self.w
-            .write_all(b)
-            .map_err(|e| ColmapError::io(self.path, e))
+        Ok(self.w.write_all(b).at(self.path)?)
     }
     fn u8(&mut self, v: u8) -> crate::Result<()> {
         self.bytes(&[v])

@@ -7,6 +7,7 @@ use super::float::push_g17;
 use crate::error::{ColmapError, Location, Problem, RecordRef, Table};
 use crate::model::Reconstruction;
 use crate::rig::RigidTransform;
+use fileio::IoResultExt;
 use std::fmt::Write as _;
 use std::io::Write;
 use std::path::Path;
@@ -58,9 +59,7 @@ impl<'a, W: Write> Out<'a, W> {
     }
 
     fn flush(&mut self) -> crate::Result<()> {
-        self.w
-            .write_all(self.buf.as_bytes())
-            .map_err(|e| ColmapError::io(self.path, e))?;
+        self.w.write_all(self.buf.as_bytes()).at(self.path)?;
         self.buf.clear();
         Ok(())
     }

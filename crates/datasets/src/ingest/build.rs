@@ -1,10 +1,12 @@
 //! Hashing every input once and reading each frame (pose, image size, depth) into the
 //! table, in parallel and in frame order.
 
-use super::config::{DatasetKind, DepthOption, PoseOption};
+use super::config::{DepthOption, PoseOption};
 use super::error::{DamagedImagesError, IngestError, Result};
 use super::plan::{Plan, PlannedFrame, PoseSource};
-use super::{camera_spec, depth, sevenscenes, whole};
+use super::{depth, sevenscenes, whole};
+use crate::camera_spec;
+use crate::dataset_kind::DatasetKind;
 use geometry::{Camera, CameraModel};
 use rayon::prelude::*;
 use std::collections::BTreeMap;

@@ -1,47 +1,34 @@
 //! The ingest configuration: a serde struct embedded in pipeline TOML files, and the
 //! option types the command line parses.
 
-use super::camera_spec;
 use super::error::{IngestError, Result};
+use crate::camera_spec;
+use crate::dataset_kind::DatasetKind;
 use geometry::Camera;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 use std::str::FromStr;
 
-/// Which dataset layout to read.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
-pub enum DatasetKind {
-    #[serde(rename = "7scenes")]
-    SevenScenes,
-    #[serde(rename = "cambridge")]
-    Cambridge,
-}
-
-impl DatasetKind {
-    pub fn name(self) -> &'static str {
-        match self {
-            DatasetKind::SevenScenes => "7scenes",
-            DatasetKind::Cambridge => "cambridge",
-        }
-    }
-}
-
-impl FromStr for DatasetKind {
-    type Err = String;
-    fn from_str(s: &str) -> std::result::Result<Self, String> {
-        match s {
-            "7scenes" => Ok(DatasetKind::SevenScenes),
-            "cambridge" => Ok(DatasetKind::Cambridge),
-            _ => Err(format!(
-                "unknown dataset {s:?} (expected 7scenes or cambridge)"
-            )),
-        }
-    }
-}
-
 /// Which pose the colour camera gets (7-Scenes; Cambridge has only `published`).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(
+    Clone,
+    Copy,
+    Debug,
+    Default,
+    PartialEq,
+    Eq,
+    Serialize,
+    Deserialize,
+    strum::Display,
+    strum::EnumString,
+    strum::VariantNames,
+)]
 #[serde(rename_all = "lowercase")]
+#[strum(
+    serialize_all = "lowercase",
+    parse_err_ty = String,
+    parse_err_fn = unknown_pose_option
+)]
 pub enum PoseOption {
     /// The dataset's pose as published (7-Scenes: the depth camera's, from pose.txt).
     #[default]
@@ -50,20 +37,20 @@ pub enum PoseOption {
     Calibrated,
 }
 
-impl FromStr for PoseOption {
-    type Err = String;
-    fn from_str(s: &str) -> std::result::Result<Self, String> {
-        match s {
-            "published" => Ok(PoseOption::Published),
-            "calibrated" => Ok(PoseOption::Calibrated),
-            _ => Err(format!(
-                "unknown pose option {s:?} (expected published or calibrated)"
-            )),
-        }
-    }
+/// The parse error, naming the accepted options.
+fn unknown_pose_option(s: &str) -> String {
+    use strum::VariantNames;
+    format!(
+        "unknown pose option {s:?} (expected {})",
+        PoseOption::VARIANTS.join(" or ")
+    )
 }
 
 /// Which depth maps the table points to. Written as `none`, `raw` or `rendered:DIR`.
+///
+/// Its names are written here by hand, once (`DepthOption::NONE`, `RAW`, `RENDERED`):
+/// `Rendered` carries a folder, which strum's derives can neither print nor parse;
+/// serde goes through `Display` and `FromStr`.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub enum DepthOption {
     #[default]
@@ -79,9 +66,9 @@ impl FromStr for DepthOption {
     type Err = String;
     fn from_str(s: &str) -> std::result::Result<Self, String> {
         match s {
-            "none" => Ok(DepthOption::None),
-            "raw" => Ok(DepthOption::Raw),
-            _ => match s.strip_prefix("rendered:") {
+            DepthOption::NONE => Ok(DepthOption::None),
+            DepthOption::RAW => Ok(DepthOption::Raw),
+            _ => match s.strip_prefix(DepthOption::RENDERED) {
                 Some(dir) if !dir.is_empty() => Ok(DepthOption::Rendered(PathBuf::from(dir))),
                 _ => Err(format!(
                     "unknown depth option {s:?} (expected none, raw or rendered:DIR)"
@@ -92,6 +79,11 @@ impl FromStr for DepthOption {
 }
 
 impl DepthOption {
+    const NONE: &str = "none";
+    const RAW: &str = "raw";
+    /// Followed by the folder.
+    const RENDERED: &str = "rendered:";
+
     pub fn is_none(&self) -> bool {
         *self == DepthOption::None
     }
@@ -100,9 +92,9 @@ impl DepthOption {
 impl std::fmt::Display for DepthOption {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
-            DepthOption::None => f.write_str("none"),
-            DepthOption::Raw => f.write_str("raw"),
-            DepthOption::Rendered(d) => write!(f, "rendered:{}", d.display()),
+            DepthOption::None => f.write_str(DepthOption::NONE),
+            DepthOption::Raw => f.write_str(DepthOption::RAW),
+            DepthOption::Rendered(d) => write!(f, "{}{}", DepthOption::RENDERED, d.display()),
         }
     }
 }
@@ -117,21 +109,6 @@ impl<'de> Deserialize<'de> for DepthOption {
     fn deserialize<D: serde::Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
         let text = String::deserialize(d)?;
         text.parse().map_err(serde::de::Error::custom)
-    }
-}
-
-impl std::fmt::Display for DatasetKind {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(self.name())
-    }
-}
-
-impl std::fmt::Display for PoseOption {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(match self {
-            PoseOption::Published => "published",
-            PoseOption::Calibrated => "calibrated",
-        })
     }
 }
 
@@ -282,6 +259,14 @@ mod tests {
             Ok(DepthOption::Rendered(PathBuf::from("/a/b")))
         );
         assert!("rendered:".parse::<DepthOption>().is_err());
+        assert_eq!(
+            "none".parse::<DepthOption>().map(|d| d.to_string()),
+            Ok("none".to_string())
+        );
+        assert_eq!(
+            "raw".parse::<DepthOption>().map(|d| d.to_string()),
+            Ok("raw".to_string())
+        );
         let mut c = IngestConfig::new(DatasetKind::SevenScenes, "/data/7scenes");
         c.scene = Some("stairs".into());
         c.depth = DepthOption::Rendered("/r".into());
@@ -317,6 +302,18 @@ mod tests {
             serde_json::to_string(&off)
                 .unwrap()
                 .contains(r#""count_check":false"#)
+        );
+    }
+
+    #[test]
+    fn pose_option_serde_and_strum_names_agree() {
+        for p in [PoseOption::Published, PoseOption::Calibrated] {
+            assert_eq!(serde_json::to_string(&p).unwrap(), format!("\"{p}\""));
+            assert_eq!(p.to_string().parse::<PoseOption>(), Ok(p));
+        }
+        assert_eq!(
+            "Published".parse::<PoseOption>(),
+            Err("unknown pose option \"Published\" (expected published or calibrated)".to_string())
         );
     }
 

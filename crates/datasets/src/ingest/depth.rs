@@ -4,8 +4,8 @@
 //! Every depth map the table points to is single-channel, in millimetres, with 0 and
 //! 65535 meaning "no depth".
 
-use super::DatasetKind;
 use super::error::{IngestError, Result};
+use crate::dataset_kind::DatasetKind;
 use geometry::{Camera, Pose, Vector2};
 use image::codecs::png::{CompressionType, FilterType, PngEncoder};
 use image::{DynamicImage, ExtendedColorType, ImageBuffer, ImageEncoder, Luma};

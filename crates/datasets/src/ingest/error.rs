@@ -8,12 +8,8 @@ use thiserror::Error;
 /// names the file and, where the file is text, the 1-based line.
 #[derive(Debug, Error)]
 pub enum IngestError {
-    #[error("{path}: {source}")]
-    Io {
-        path: PathBuf,
-        #[source]
-        source: std::io::Error,
-    },
+    #[error(transparent)]
+    Io(#[from] fileio::IoError),
     /// A file or folder the layout requires does not exist.
     #[error("{path}: missing {what}")]
     Missing { path: PathBuf, what: String },
@@ -160,9 +156,4 @@ fn list_mismatches(mismatches: &[CountMismatch]) -> String {
         .map(|m| format!("{}: expected {}, found {}", m.split, m.expected, m.found))
         .collect();
     list.join("; ")
-}
-
-pub(crate) fn io_err(path: impl Into<PathBuf>) -> impl FnOnce(std::io::Error) -> IngestError {
-    let path = path.into();
-    move |source| IngestError::Io { path, source }
 }

@@ -1,17 +1,14 @@
-//! The ingest stage: reads a dataset in its published layout and writes the frames table
-//! (ARCHITECTURE.md, "Data flow"; the layouts read are in docs/formats.md section 3). One adapter per dataset converts its conventions once, here:
-//! poses become world-to-camera, cameras COLMAP models, names dataset-relative paths.
-//!
-//! Stage folder layout: `frames.parquet` (see [`tables::frames`]), `depth/<stem>.depth.png`
-//! (registered depth, `--depth raw` only) and `stage.json`. A rerun whose configuration
-//! and input files (content hashes of every file read) match the record is skipped.
+//! The ingest stage's steps: reads a dataset in its published layout into the frames
+//! table (ARCHITECTURE.md, "Data flow"; the layouts read are in docs/formats.md section
+//! 3). One adapter per dataset converts its conventions once, here: poses become
+//! world-to-camera, cameras COLMAP models, names dataset-relative paths. The stage
+//! itself (its folder, record and skip) is [`crate::ingest_stage`].
 //!
 //! Frame ids: frames sorted by split (train, then test), then by name in byte order,
 //! numbered from 0.
 
 mod build;
 pub mod cambridge;
-pub mod camera_spec;
 mod config;
 pub mod depth;
 mod error;
@@ -21,105 +18,47 @@ pub mod sevenscenes;
 mod text;
 mod whole;
 
-pub use config::{DatasetKind, DepthOption, IngestConfig, PoseOption};
+pub use crate::dataset_kind::DatasetKind;
+pub use config::{DepthOption, IngestConfig, PoseOption};
 pub use error::{DamagedImagesError, FrameCountError, IngestError, Result};
 
-use stage::{Done, Stage};
-use std::path::{Path, PathBuf};
+use std::collections::BTreeMap;
+use std::path::Path;
 use tables::frames::FramesTable;
 
-pub const STAGE: &str = "ingest";
-pub const FRAMES_FILE: &str = "frames.parquet";
-pub const DEPTH_DIR: &str = "depth";
-
-/// Result of [`run`].
-#[derive(Debug)]
-pub struct IngestOutput {
-    pub table: FramesTable,
-    pub frames_path: PathBuf,
+/// A dataset planned (every frame and every file it reads listed, the configuration
+/// normalised) and its inputs hashed: what the stage records before it reads a frame.
+pub(crate) struct Planned {
+    plan: plan::Plan,
+    hashes: build::InputHashes,
 }
 
-impl stage::Note for IngestOutput {
-    fn note(&self) -> String {
-        format!(
-            "{} frames ({} train, {} test)",
-            self.table.frames.len(),
-            self.table.count(tables::Split::Train),
-            self.table.count(tables::Split::Test)
-        )
+impl Planned {
+    pub(crate) fn new(config: &IngestConfig) -> Result<Planned> {
+        let plan = plan::plan(config)?;
+        let hashes = build::hash_inputs(&plan)?;
+        Ok(Planned { plan, hashes })
     }
-}
 
-/// Runs the ingest stage into `out_dir` through the stage runner: skipped when
-/// `out_dir/stage.json` matches the configuration and the content of every input file;
-/// otherwise writes `depth/` (raw depth), `frames.parquet` and, last, `stage.json`.
-pub fn run(config: &IngestConfig, out_dir: &Path) -> Result<Done<IngestOutput>> {
-    std::fs::create_dir_all(out_dir).map_err(error::io_err(out_dir))?;
-    let out_dir = std::fs::canonicalize(out_dir).map_err(error::io_err(out_dir))?;
-    let frames_path = out_dir.join(FRAMES_FILE);
-    let plan = plan::plan(config)?;
-    let hashes = build::hash_inputs(&plan)?;
-    let stage = Stage::new(
-        STAGE,
-        &out_dir,
-        &plan.normalised_config,
-        hashes.inputs.clone(),
-    )?;
-    // Registered depth of an earlier ingest run would linger: the maps its record names
-    // are removed (anything else in the folder is left alone).
-    let previous = stage.previous();
-    stage.run(
-        |_| {
-            let table = FramesTable::read_parquet(&frames_path)?;
-            Ok(IngestOutput {
-                table,
-                frames_path: frames_path.clone(),
-            })
-        },
-        |out| {
-            let depth_dir = out_dir.join(DEPTH_DIR);
-            if let Some(r) = previous.filter(|r| r.stage == STAGE) {
-                let prefix = format!("{DEPTH_DIR}/");
-                let mut folders = std::collections::BTreeSet::new();
-                for rel in r.outputs.keys().filter(|k| k.starts_with(&prefix)) {
-                    let p = out_dir.join(rel);
-                    match std::fs::remove_file(&p) {
-                        Ok(()) => {}
-                        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
-                        Err(e) => return Err(error::io_err(&p)(e)),
-                    }
-                    folders.extend(
-                        p.ancestors()
-                            .skip(1)
-                            .take_while(|a| a.starts_with(&depth_dir))
-                            .map(Path::to_path_buf),
-                    );
-                }
-                // Folders left empty go too, deepest first; one holding a file the
-                // stage did not write stays (remove_dir refuses it).
-                for folder in folders.iter().rev() {
-                    let _ = std::fs::remove_dir(folder);
-                }
-            }
-            let table = build::build(&plan, &hashes, Some(&depth_dir))?;
-            table.write_parquet(&out.path(FRAMES_FILE))?;
-            for f in &table.frames {
-                if let Some(p) = &f.depth_path {
-                    out.add(p)?;
-                }
-            }
-            Ok(IngestOutput {
-                table,
-                frames_path: frames_path.clone(),
-            })
-        },
-    )
+    /// The configuration with its paths made absolute: what the record hashes.
+    pub(crate) fn config(&self) -> &IngestConfig {
+        &self.plan.normalised_config
+    }
+
+    /// Input name -> content hash.
+    pub(crate) fn inputs(&self) -> &BTreeMap<String, String> {
+        &self.hashes.inputs
+    }
+
+    /// Reads every frame into the table; registered depth goes to `depth_out`
+    /// (required with `depth = raw`).
+    pub(crate) fn build(&self, depth_out: Option<&Path>) -> Result<FramesTable> {
+        build::build(&self.plan, &self.hashes, depth_out)
+    }
 }
 
 /// Reads a dataset into a frames table without a stage folder. `depth_out` is where
 /// registered depth goes (required with `depth = raw`).
 pub fn read_dataset(config: &IngestConfig, depth_out: Option<&Path>) -> Result<FramesTable> {
-    let plan = plan::plan(config)?;
-    let hashes = build::hash_inputs(&plan)?;
-    build::build(&plan, &hashes, depth_out)
+    Planned::new(config)?.build(depth_out)
 }

@@ -2,10 +2,12 @@
 //! reads the small text files (split files, NVM). Per-frame files are read by
 //! [`super::build`].
 
-use super::config::{DatasetKind, DepthOption, IngestConfig, PoseOption};
-use super::error::{FrameCountError, IngestError, Result, io_err};
+use super::config::{DepthOption, IngestConfig, PoseOption};
+use super::error::{FrameCountError, IngestError, Result};
 use super::{cambridge, depth, nvm, sevenscenes};
+use crate::dataset_kind::DatasetKind;
 use crate::descriptor::{self, CountCheck, Descriptor, Extrinsic, NamedCamera, SplitCounts};
+use fileio::io_err;
 use geometry::{Camera, Pose};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};

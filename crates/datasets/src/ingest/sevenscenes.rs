@@ -13,8 +13,9 @@
 //!   depth: f=585 at (320, 240). Both are read in COLMAP's pixel convention (the top-left
 //!   pixel's centre is (0.5, 0.5)), so (320, 240) is the exact image centre.
 
-use super::error::{IngestError, Result, io_err};
+use super::error::{IngestError, Result};
 use super::text::{numbered_lines, parse_err, parse_f64, read_text};
+use fileio::io_err;
 use geometry::pose::check_rotation;
 use geometry::{GeometryError, Matrix3, Matrix4, Pose};
 use std::collections::BTreeMap;
@@ -108,7 +109,7 @@ pub(crate) fn list_sequence(
                 ),
             });
         }
-        Err(e) => return Err(io_err(&dir)(e)),
+        Err(e) => return Err(io_err(&dir)(e).into()),
     };
     let mut frames: BTreeMap<String, Found> = BTreeMap::new();
     for entry in entries {

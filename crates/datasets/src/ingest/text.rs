@@ -17,10 +17,7 @@ pub(crate) fn read_text(path: &Path, what: &str) -> Result<String> {
             });
         }
         Err(source) => {
-            return Err(IngestError::Io {
-                path: path.to_path_buf(),
-                source,
-            });
+            return Err(fileio::IoError::new(path, source).into());
         }
     };
     let text = String::from_utf8(bytes).map_err(|e| {

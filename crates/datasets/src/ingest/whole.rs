@@ -9,7 +9,7 @@ use std::path::Path;
 /// The decoded image, or [`IngestError::DamagedImage`] naming the file and what is
 /// wrong (truncated at which byte, a failed chunk checksum, a decoder error).
 pub(super) fn decode_whole(path: &Path) -> Result<DynamicImage> {
-    let bytes = std::fs::read(path).map_err(super::error::io_err(path))?;
+    let bytes = std::fs::read(path).map_err(fileio::io_err(path))?;
     let damaged = |reason: String| IngestError::DamagedImage {
         path: path.to_path_buf(),
         reason,

@@ -14,17 +14,15 @@ mod division;
 mod eucm;
 mod fisheye;
 mod fov;
+mod intrinsics;
 mod jet;
 mod radial;
 mod spherical;
 mod undistort;
 
-use super::CameraModel;
+use super::camera_model::CameraModel;
+use intrinsics::{Intrinsics, MIN_DEPTH};
 use nalgebra::{Vector2, Vector3};
-
-/// Points closer to the camera plane than this cannot be projected (COLMAP's
-/// cheirality threshold for every model that has one).
-const MIN_DEPTH: f64 = f64::EPSILON;
 
 pub(super) fn img_from_cam(m: CameraModel, p: &[f64], x: &Vector3<f64>) -> Option<Vector2<f64>> {
     use CameraModel::*;
@@ -83,46 +81,4 @@ pub(super) fn cam_ray_from_img(
         Equirectangular => spherical::lift(p, px),
     }?;
     ray.iter().all(|c| c.is_finite()).then_some(ray)
-}
-
-/// Focal lengths and principal point of a perspective model.
-struct Intrinsics {
-    fx: f64,
-    fy: f64,
-    cx: f64,
-    cy: f64,
-}
-
-impl Intrinsics {
-    fn of(m: CameraModel, p: &[f64]) -> Self {
-        if m.focal_length_idxs().len() == 1 {
-            Intrinsics {
-                fx: p[0],
-                fy: p[0],
-                cx: p[1],
-                cy: p[2],
-            }
-        } else {
-            Intrinsics {
-                fx: p[0],
-                fy: p[1],
-                cx: p[2],
-                cy: p[3],
-            }
-        }
-    }
-
-    /// The distortion parameters: everything after the focal length(s) and principal
-    /// point, in COLMAP order.
-    fn extra(m: CameraModel, p: &[f64]) -> &[f64] {
-        &p[m.focal_length_idxs().len() + 2..]
-    }
-
-    fn pixel(&self, u: f64, v: f64) -> Vector2<f64> {
-        Vector2::new(self.fx * u + self.cx, self.fy * v + self.cy)
-    }
-
-    fn normalised(&self, px: &Vector2<f64>) -> (f64, f64) {
-        ((px.x - self.cx) / self.fx, (px.y - self.cy) / self.fy)
-    }
 }

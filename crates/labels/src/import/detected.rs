@@ -13,8 +13,8 @@
 //! kept as unlabelled keypoints, they took over half of every step's samples and the map
 //! localised worse still (docs/training-notes.md, "Real-tool labels").
 
-use super::ImportError;
 use super::detectors::{MakeFrontEnd, keypoints_near};
+use super::error::ImportError;
 use features::FrontEndConfig;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};

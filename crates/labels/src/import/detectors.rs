@@ -20,7 +20,8 @@
 //! keypoints as the model has in the image, so that a different top-K is not taken for a
 //! different detector.
 
-use super::ImportError;
+use super::detector_report::DetectorCheckReport;
+use super::error::ImportError;
 use features::{FrontEnd, FrontEndConfig};
 use serde::{Deserialize, Serialize};
 use std::collections::HashMap;
@@ -50,8 +51,21 @@ pub const MIN_KEYPOINT_RATE: f64 = 0.3;
 pub const MIN_SEGMENT_RATE: f64 = 0.35;
 
 /// `[import] detector_check`: what the import does with the check's result.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[derive(
+    Clone,
+    Copy,
+    Debug,
+    Default,
+    PartialEq,
+    Eq,
+    Serialize,
+    Deserialize,
+    clap::ValueEnum,
+    strum::Display,
+    strum::IntoStaticStr,
+)]
 #[serde(rename_all = "lowercase")]
+#[strum(serialize_all = "lowercase")]
 pub enum DetectorCheck {
     /// Check; refuse the import when a rate says another detector made the inputs.
     #[default]
@@ -70,27 +84,18 @@ impl DetectorCheck {
     }
 
     pub fn as_str(self) -> &'static str {
-        match self {
-            DetectorCheck::Refuse => "refuse",
-            DetectorCheck::Accept => "accept",
-            DetectorCheck::Off => "off",
-        }
+        self.into()
     }
 }
 
-impl std::fmt::Display for DetectorCheck {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(self.as_str())
-    }
-}
-
-/// Builds the front-end of a configuration. The import builds SIFT itself
-/// ([`sift_only`]); a caller that links the `superpoint` crate passes
-/// `superpoint::front_end`.
+/// Builds the front-end of a configuration: the import stage's caller passes it, since
+/// this crate does not link SuperPoint (burn); [`sift_only`] builds SIFT, and a caller
+/// that links the `superpoint` crate passes `superpoint::front_end`.
 pub type MakeFrontEnd<'a> =
     &'a (dyn Fn(&FrontEndConfig) -> Result<Arc<dyn FrontEnd>, String> + Sync);
 
-/// The builder of [`super::run`]: SIFT; SuperPoint is refused with the function to call.
+/// The builder for a caller without SuperPoint: SIFT; SuperPoint is refused with the
+/// builder to pass instead.
 pub fn sift_only(config: &FrontEndConfig) -> Result<Arc<dyn FrontEnd>, String> {
     if config.kind.is_sift() {
         Ok(Arc::new(
@@ -98,111 +103,10 @@ pub fn sift_only(config: &FrontEndConfig) -> Result<Arc<dyn FrontEnd>, String> {
         ))
     } else {
         Err(format!(
-            "the {} front-end is built by the caller (labels::import::run_with with \
+            "the {} front-end is built by the caller (labels::import_stage::run with \
              superpoint::front_end)",
             config.kind
         ))
-    }
-}
-
-/// What the check measured and decided: in `import_report.json` when it ran.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct DetectorCheckReport {
-    /// The front-end whose keypoints were compared (`sift`, `superpoint`).
-    pub front_end: String,
-    /// Its line detector (`lsd`).
-    pub line_detector: String,
-    /// The sampled training images (frames table names).
-    pub images: Vec<String>,
-    pub radius_px: f64,
-    pub keypoints: usize,
-    pub keypoints_matched: usize,
-    pub keypoint_rate: f64,
-    pub min_keypoint_rate: f64,
-    /// LIMAP segments compared: those at least `min_segment_length_px` long.
-    pub segments: usize,
-    /// The front-end's own minimum segment length plus twice the match radius: a
-    /// segment this long is one the front-end reports even with both endpoints moved by
-    /// the radius. Shorter LIMAP segments (LIMAP's LSD keeps every length) are left out
-    /// of the rate, since the front-end drops them by design.
-    #[serde(default)]
-    pub min_segment_length_px: f64,
-    /// LIMAP segments shorter than that, not compared.
-    #[serde(default)]
-    pub segments_short: usize,
-    pub segments_matched: usize,
-    pub segment_rate: f64,
-    pub min_segment_rate: f64,
-    /// `passed`, `refused`, or `accepted` (the rates failed and `detector_check =
-    /// "accept"` imported anyway).
-    pub decision: String,
-}
-
-impl DetectorCheckReport {
-    pub fn keypoints_pass(&self) -> bool {
-        self.keypoints == 0 || self.keypoint_rate >= self.min_keypoint_rate
-    }
-
-    pub fn segments_pass(&self) -> bool {
-        self.segments == 0 || self.segment_rate >= self.min_segment_rate
-    }
-
-    pub fn passed(&self) -> bool {
-        self.keypoints_pass() && self.segments_pass()
-    }
-
-    /// The rates, one line.
-    pub fn rates(&self) -> String {
-        format!(
-            "{:.1} % of {} model keypoints within {} px of a {} detection (needs {:.0} %), \
-             {:.1} % of {} LIMAP segments of at least {} px with both endpoints within {} px \
-             of a {} segment (needs {:.0} %; {} shorter ones not compared), on {} training \
-             image(s)",
-            100.0 * self.keypoint_rate,
-            self.keypoints,
-            self.radius_px,
-            self.front_end,
-            100.0 * self.min_keypoint_rate,
-            100.0 * self.segment_rate,
-            self.segments,
-            self.min_segment_length_px,
-            self.radius_px,
-            self.line_detector,
-            100.0 * self.min_segment_rate,
-            self.segments_short,
-            self.images.len()
-        )
-    }
-
-    /// The refusal: rates, likely cause and fix.
-    pub fn refusal(&self) -> String {
-        let mut s = format!(
-            "the inputs were not made by the configured detectors: {}.",
-            self.rates()
-        );
-        if !self.keypoints_pass() {
-            s.push_str(&format!(
-                " Likely cause: the model's keypoints were made by another detector than \
-                 {fe} (e.g. SuperPoint for hloc's sfm_superpoint+superglue, SIFT for a \
-                 COLMAP or hloc SIFT model), so training would describe positions the {fe} \
-                 front-end never detects at query time.",
-                fe = self.front_end
-            ));
-        }
-        if !self.segments_pass() {
-            s.push_str(&format!(
-                " Likely cause: LIMAP's segments were made by another line detector than \
-                 {} (e.g. DeepLSD), or segment_scale is wrong (LIMAP detects on images \
-                 resized to max_image_dim), or the segments were moved.",
-                self.line_detector
-            ));
-        }
-        s.push_str(
-            " Fix: set [features] kind (pl2map import --front-end) to the detector that made \
-             the keypoints, or import these inputs anyway with [import] detector_check = \
-             \"accept\" (--detector-check accept; the report keeps the rates).",
-        );
-        s
     }
 }
 
@@ -420,5 +324,22 @@ mod tests {
             [50.0, 0.0, 10.0, 80.0],  // endpoints of two different detections
         ];
         assert_eq!(matched_segments(&segs, &det, 2.0), 2);
+    }
+
+    #[test]
+    fn detector_check_serde_and_strum_names_agree() {
+        for c in [
+            DetectorCheck::Refuse,
+            DetectorCheck::Accept,
+            DetectorCheck::Off,
+        ] {
+            assert_eq!(
+                serde_json::to_string(&c).unwrap(),
+                format!("\"{}\"", c.as_str())
+            );
+            assert_eq!(c.to_string(), c.as_str());
+            let clap_name = clap::ValueEnum::to_possible_value(&c).unwrap();
+            assert_eq!(clap_name.get_name(), c.as_str());
+        }
     }
 }

@@ -1,7 +1,9 @@
 //! What the import found and wrote: counts, pose disagreement between the SfM model and
 //! the dataset, and warnings. Saved as JSON and printed as a short table.
 
-use super::{DetectedLabelsReport, DetectorCheckReport, ImportConfig};
+use super::config::ImportConfig;
+use super::detected::DetectedLabelsReport;
+use super::detector_report::DetectorCheckReport;
 use crate::stats::Spread;
 use serde::{Deserialize, Serialize};
 

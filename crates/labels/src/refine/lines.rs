@@ -1,6 +1,6 @@
 //! Depth refinement of line labels (see the module docs of [`super`]).
 
-use super::RefineConfig;
+use super::config::RefineConfig;
 use super::fit::{principal_line, ransac_line};
 use super::report::{KindReport, Outcome, Tally};
 use crate::align::align_endpoints;

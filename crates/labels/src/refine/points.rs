@@ -1,7 +1,7 @@
 //! Depth refinement of point labels (see the module docs of [`super`]).
 
+use super::config::{PointSampling, RefineConfig};
 use super::report::{KindReport, Outcome, Tally};
-use super::{PointSampling, RefineConfig};
 use crate::depth::{DepthMap, back_project};
 use crate::stats::{dist3, median3};
 use geometry::{Vector2, Vector3};

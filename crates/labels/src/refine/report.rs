@@ -1,6 +1,6 @@
 //! What refinement moved and dropped, per label kind; saved as JSON and printed.
 
-use super::RefineConfig;
+use super::config::RefineConfig;
 use crate::stats::Spread;
 use serde::{Deserialize, Serialize};
 

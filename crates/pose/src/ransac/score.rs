@@ -1,7 +1,7 @@
 //! MSAC scores on the normalised image plane: each correspondence costs its squared
 //! error, capped at the squared threshold; points behind the camera cost the cap.
 
-use super::data::{NLine, NPoint};
+use crate::normalized::{NLine, NPoint};
 use crate::rigid::Rigid;
 
 /// Squared reprojection error of a point (normalised units); infinite behind the camera.

@@ -6,7 +6,7 @@
 //!   by frame), then [`crate::evaluate::localize_frame`] (reliability filters, RANSAC
 //!   with points and with points + lines) for every frame side by side. Each frame's
 //!   RANSAC is seeded from the run's seed and its image name, so results do not depend on the
-//!   thread count or on which frames share a batch. The score stage ([`crate::run()`])
+//!   thread count or on which frames share a batch. The score stage ([`crate::score_shards`])
 //!   adds the errors against the ground truth.
 //! - [`queries`]: hloc's query list with intrinsics, or a folder of images with one
 //!   camera.
@@ -16,26 +16,20 @@
 //!   (missing or unreadable image, bad camera line, image of another size than its
 //!   camera) is a row of the table with its reason; the others are still localised.
 
-#[cfg(feature = "network")]
-pub mod bench;
+mod output;
 pub mod queries;
 pub mod table;
 
 use crate::error::ScoreError;
-use crate::evaluate::{FrameResult, ScoreConfig, Variant, localize_frame};
-use crate::localiser::{Correspondences, Localiser, TestFrame, Timing};
+use crate::evaluate::{Localised, ScoreConfig, Variant, localize_frame};
+use crate::localiser::{Localiser, TestFrame, Timing};
+use fileio::io_err;
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
+pub use output::{LocalizeOutput, QueryResult};
 pub use queries::{Query, folder_queries, load_query, parse_query_list, read_query_list};
-
-/// One frame localised: the result and the correspondences it was computed from.
-#[derive(Clone, Debug)]
-pub struct Localised {
-    pub result: FrameResult,
-    pub correspondences: Correspondences,
-}
 
 /// Corresponds and localises a batch of frames, in their order, each with its own
 /// result (see the module docs). `before[i]` holds frame i's earlier timings (reading).
@@ -87,49 +81,6 @@ impl LocalizeOptions {
         } else {
             Variant::Points
         }
-    }
-}
-
-/// One query's outcome: localised (with or without a pose), or why it could not be
-/// read.
-#[derive(Clone, Debug)]
-pub struct QueryResult {
-    pub query: Query,
-    pub outcome: Result<FrameResult, String>,
-}
-
-impl QueryResult {
-    /// The chosen variant's pose, when there is one.
-    pub fn pose(&self, v: Variant) -> Option<&geometry::Pose> {
-        self.outcome.as_ref().ok()?.variant(v).pose.as_ref()
-    }
-}
-
-/// What a run did.
-#[derive(Clone, Debug)]
-pub struct LocalizeOutput {
-    pub variant: Variant,
-    pub results: Vec<QueryResult>,
-    /// Every file written.
-    pub files: Vec<PathBuf>,
-}
-
-impl LocalizeOutput {
-    /// Queries that could not be read (bad input).
-    pub fn failed_inputs(&self) -> impl Iterator<Item = &QueryResult> {
-        self.results.iter().filter(|r| r.outcome.is_err())
-    }
-
-    pub fn localised(&self) -> usize {
-        self.results
-            .iter()
-            .filter(|r| r.pose(self.variant).is_some())
-            .count()
-    }
-
-    /// A few lines for the terminal: counts, inliers and time per phase.
-    pub fn summary(&self) -> String {
-        table::summary(self)
     }
 }
 
@@ -237,10 +188,7 @@ fn write_outputs(
             .map(|p| (r.query.id, r.query.name.as_str(), p))
     });
     let hloc = crate::hloc::format_results(entries)?;
-    std::fs::create_dir_all(out).map_err(|source| ScoreError::Io {
-        path: out.to_path_buf(),
-        source,
-    })?;
+    std::fs::create_dir_all(out).map_err(io_err(out))?;
     let mut files = Vec::new();
     let p = out.join(RESULTS_FILE);
     stage::write_atomic(&p, hloc.as_bytes())?;

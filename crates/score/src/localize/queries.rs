@@ -6,6 +6,7 @@
 
 use crate::error::ScoreError;
 use crate::localiser::TestFrame;
+use fileio::io_err;
 use geometry::{Camera, Pose};
 use shards::{FrameRecord, ImageFormat, Split};
 use std::collections::HashMap;
@@ -30,10 +31,7 @@ pub struct Query {
 /// (case-insensitive). Only an unreadable list is an error; a bad line becomes a query
 /// whose camera is the reason.
 pub fn read_query_list(path: &Path) -> Result<Vec<Query>, ScoreError> {
-    let bytes = std::fs::read(path).map_err(|source| ScoreError::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
+    let bytes = std::fs::read(path).map_err(io_err(path))?;
     let text = String::from_utf8(bytes).map_err(|e| ScoreError::QueryList {
         path: path.to_path_buf(),
         line: text_line_of(e.as_bytes(), e.utf8_error().valid_up_to()),
@@ -84,10 +82,7 @@ pub fn parse_query_list(text: &str, path: &Path) -> Vec<Query> {
 /// `/`-separated path relative to `dir`, in byte order, all with `camera`. A name with
 /// whitespace (which the results file cannot hold) becomes a failed query.
 pub fn folder_queries(dir: &Path, camera: &Camera) -> Result<Vec<Query>, ScoreError> {
-    let files = tables::image_file::list(dir).map_err(|source| ScoreError::Io {
-        path: dir.to_path_buf(),
-        source,
-    })?;
+    let files = tables::image_file::list(dir).map_err(io_err(dir))?;
     let mut names: Vec<String> = files
         .iter()
         .map(|path| {

@@ -1,7 +1,8 @@
 //! `per_image.csv` of `pl2map localize`: one row per query, in query order
-//! (docs/formats.md, "Localisation outputs"), and the summary printed at the end.
+//! (docs/formats.md, "Localisation outputs"), and the summary printed at the end
+//! ([`LocalizeOutput::summary`]).
 
-use super::{LocalizeOutput, QueryResult};
+use super::output::{LocalizeOutput, QueryResult};
 use crate::evaluate::{FrameResult, Variant};
 
 /// Time columns, in this order: `time_<step>_ms`.
@@ -103,7 +104,14 @@ fn median(mut v: Vec<f64>) -> Option<f64> {
     Some(v[v.len() / 2])
 }
 
-pub(super) fn summary(o: &LocalizeOutput) -> String {
+impl LocalizeOutput {
+    /// A few lines for the terminal: counts, inliers and time per phase.
+    pub fn summary(&self) -> String {
+        summary(self)
+    }
+}
+
+fn summary(o: &LocalizeOutput) -> String {
     let v = o.variant;
     let n = o.results.len();
     let bad = o.failed_inputs().count();

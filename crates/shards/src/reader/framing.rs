@@ -2,7 +2,7 @@
 //! against the bytes there, the file's magic and footer, the summary section (its CRC
 //! and its record kinds) and the chunk indexes, before the mcap crate parses any of it.
 
-use super::ReaderOptions;
+use super::options::ReaderOptions;
 use crate::error::ShardError;
 use mcap::records::{ChunkIndex, op};
 use std::path::Path;

@@ -14,12 +14,15 @@
 //!
 //! This file holds the reader of several shards ([`ShardReader`]: frame order, seeking,
 //! the chunk cache, decoding a frame); one shard's index and chunks are
-//! `shard_file.rs` ([`ShardFile`]), and the checked reading of the MCAP framing it
-//! rests on (records, footer, summary, chunk indexes) is `framing.rs`.
+//! `shard_file.rs` ([`ShardFile`]), the checked reading of the MCAP framing it
+//! rests on (records, footer, summary, chunk indexes) is `framing.rs`, and the limits
+//! all three apply ([`ReaderOptions`]) are `options.rs`.
 
 mod framing;
+mod options;
 mod shard_file;
 
+pub use options::ReaderOptions;
 pub use shard_file::ShardFile;
 
 use crate::error::ShardError;
@@ -30,32 +33,6 @@ use bytes::Bytes;
 use prost::Message as _;
 use std::collections::HashMap;
 use std::path::Path;
-
-/// Limits and checks of the reader.
-#[derive(Clone, Debug)]
-pub struct ReaderOptions {
-    /// Largest decompressed chunk accepted (the size comes from the file, so it is
-    /// bounded before allocating).
-    pub max_chunk_bytes: u64,
-    /// Check each chunk's CRC32 after decompressing it.
-    pub verify_chunk_crc: bool,
-    /// Decompressed chunks a [`ShardReader`] keeps, least recently used out first, up
-    /// to this many bytes (the two most recent are always kept: a frame's image and
-    /// labels may straddle a chunk boundary). A sequential read needs no more; random
-    /// access in a window (a training stream's shuffle buffer) decompresses each chunk
-    /// of the window once instead of once per frame.
-    pub cache_bytes: u64,
-}
-
-impl Default for ReaderOptions {
-    fn default() -> Self {
-        ReaderOptions {
-            max_chunk_bytes: 1 << 30,
-            verify_chunk_crc: true,
-            cache_bytes: 0,
-        }
-    }
-}
 
 /// A decompressed chunk kept for the next frames.
 struct CachedChunk {

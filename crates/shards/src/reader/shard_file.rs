@@ -2,11 +2,12 @@
 //! frame table built from the per-chunk message indexes; decompressing a chunk and
 //! slicing a message out of it, each checked against the index.
 
-use super::ReaderOptions;
 use super::framing::{RECORD_PREFIX, check_chunk_indexes, read_summary, record_at};
-use crate::error::{ShardError, io_err};
+use super::options::ReaderOptions;
+use crate::error::ShardError;
 use crate::schema::FRAME_LABELS_SCHEMA_NAME;
 use crate::writer::{TOPIC_IMAGE, TOPIC_LABELS, frame_id_of_log_time};
+use fileio::io_err;
 use mcap::records::{ChunkIndex, Record, op};
 use memmap2::Mmap;
 use std::collections::BTreeMap;

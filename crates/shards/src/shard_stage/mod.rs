@@ -23,30 +23,28 @@
 //! and a shard whose digest is unchanged and whose bytes are intact is kept.
 //!
 //! This file holds the stage's configuration, plan and run; what goes into a frame's
-//! record is `source.rs`, and the work units' manifests (checking and merging them) are
-//! `units.rs`.
+//! record is `source.rs`, the work units' manifests (checking and merging them) are
+//! `units.rs`, and the stage's error and file names are `error.rs` and `names.rs`.
 
+mod error;
+mod names;
 mod source;
 mod units;
 
-use crate::{
-    FrameRecord, Manifest, ShardConfig, ShardError, ShardJob, ShardPlan, plan_shards, write_shards,
-};
+pub use error::ShardStageError;
+pub use names::{MANIFEST_FILE, STAGE, TEST_PREFIX, TRAIN_PREFIX};
+
+use crate::{FrameRecord, Manifest, ShardConfig, ShardJob, ShardPlan, plan_shards, write_shards};
+use fileio::IoError;
 use serde::{Deserialize, Serialize};
 use source::{Source, ranges_by_frame};
 use stage::{Done, RecordCheck, Stage};
 use std::collections::{BTreeMap, BTreeSet};
 use std::ops::Range;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use tables::labels::{LINES_FILE, POINTS_FILE, POSES_FILE};
-use tables::{FramesTable, LabelTables, Split, TableError};
-use thiserror::Error;
+use tables::{FramesTable, LabelTables, Split};
 use units::{finish_if_complete, load_manifest, save_record, unit_manifest_name, unit_up_to_date};
-
-pub const STAGE: &str = "shard";
-pub const MANIFEST_FILE: &str = "manifest.json";
-pub const TRAIN_PREFIX: &str = "train-";
-pub const TEST_PREFIX: &str = "test-";
 
 /// The shard stage's configuration: `[shard]` of a pipeline file and the flags of
 /// `pl2map shard`, the only place its settings and defaults live.
@@ -110,38 +108,6 @@ impl ShardStageConfig {
         }
         Ok(())
     }
-}
-
-#[derive(Debug, Error)]
-pub enum ShardStageError {
-    #[error(transparent)]
-    Table(#[from] TableError),
-    #[error(transparent)]
-    Shards(#[from] ShardError),
-    #[error(transparent)]
-    Stage(#[from] stage::StageError),
-    #[error("{}: {source}", path.display())]
-    Io {
-        path: PathBuf,
-        #[source]
-        source: std::io::Error,
-    },
-    #[error(
-        "the label tables do not cover the training frames: {} training frame(s) without labels \
-         (first {:?}), {} labelled frame(s) that are not training frames (first {:?})",
-        missing.len(), missing.first(), extra.len(), extra.first()
-    )]
-    LabelsDontMatch { missing: Vec<u32>, extra: Vec<u32> },
-    #[error("shard range {start}..{end} is outside the plan's {count} shards")]
-    Range {
-        start: usize,
-        end: usize,
-        count: usize,
-    },
-    #[error("{}: cannot read the manifest: {reason}", path.display())]
-    Manifest { path: PathBuf, reason: String },
-    #[error("shard configuration: {0}")]
-    Config(String),
 }
 
 /// What a run did.
@@ -299,11 +265,11 @@ fn run_unit(
     // Work units write disjoint shards of one folder side by side: they share it, and
     // a whole run waits for them (and they for it).
     let mode = if full {
-        stage::LockMode::Exclusive
+        stage::GuardMode::Exclusive
     } else {
-        stage::LockMode::Shared
+        stage::GuardMode::Shared
     };
-    let stage = Stage::with_lock(STAGE, out, config, inputs.clone(), mode)?;
+    let stage = Stage::with_guard(STAGE, out, config, inputs.clone(), mode)?;
     let config_hash = stage.config_hash().to_string();
     let expected = Manifest {
         format_version: crate::SHARD_FORMAT_VERSION,
@@ -418,9 +384,6 @@ fn remove_file(path: &Path) -> Result<(), ShardStageError> {
     match std::fs::remove_file(path) {
         Ok(()) => Ok(()),
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(()),
-        Err(source) => Err(ShardStageError::Io {
-            path: path.to_path_buf(),
-            source,
-        }),
+        Err(source) => Err(IoError::new(path, source).into()),
     }
 }

@@ -4,8 +4,9 @@
 //! ingested. Also each planned shard's source digest, made of the same records without
 //! their images.
 
-use super::ShardStageError;
+use super::error::ShardStageError;
 use crate::{FrameRecord, ImageFormat, ShardConfig, ShardError, ShardPlan, SourceDigest};
+use fileio::IoResultExt;
 use std::collections::HashMap;
 use std::ops::Range;
 use std::path::PathBuf;
@@ -15,11 +16,8 @@ use thiserror::Error;
 /// Why one frame could not be loaded (reported by the shards crate with its frame id).
 #[derive(Debug, Error)]
 pub(super) enum SourceError {
-    #[error("{}: {source}", path.display())]
-    Read {
-        path: PathBuf,
-        source: std::io::Error,
-    },
+    #[error(transparent)]
+    Read(#[from] fileio::IoError),
     #[error(
         "{}: the file changed since ingest (sha256 {actual}, the frames table says {expected})",
         path.display()
@@ -103,10 +101,7 @@ impl Source<'_> {
     /// The frame's record with its image file, which must still be the one ingested.
     pub(super) fn load(&self, frame_id: u64) -> Result<FrameRecord, SourceError> {
         let (mut rec, f) = self.describe(frame_id)?;
-        let bytes = std::fs::read(&f.path).map_err(|source| SourceError::Read {
-            path: f.path.clone(),
-            source,
-        })?;
+        let bytes = std::fs::read(&f.path).at(&f.path)?;
         let actual = stage::sha256_bytes(&bytes);
         if actual != f.content_hash {
             return Err(SourceError::Changed {

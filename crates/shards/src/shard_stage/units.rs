@@ -3,9 +3,11 @@
 //! this run (configuration, inputs, plan) and its shards are intact, and the intact ones
 //! are merged into `manifest.json` and the stage record once they cover the whole plan.
 
-use super::{MANIFEST_FILE, ShardStageError};
+use super::error::ShardStageError;
+use super::names::MANIFEST_FILE;
 use crate::Manifest;
-use stage::{FolderLock, LockMode, Stage};
+use fileio::IoResultExt;
+use stage::{FolderGuard, GuardMode, Stage};
 use std::ops::Range;
 use std::path::Path;
 
@@ -79,18 +81,10 @@ pub(super) fn finish_if_complete(
 ) -> Result<bool, ShardStageError> {
     let out = stage.dir();
     // One unit at a time merges the unit manifests and writes the record.
-    let _merge = FolderLock::wait_named(out, MERGE_LOCK_FILE, LockMode::Exclusive)?;
-    let io = |source| ShardStageError::Io {
-        path: out.to_path_buf(),
-        source,
-    };
+    let _merge = FolderGuard::wait_named(out, MERGE_LOCK_FILE, GuardMode::Exclusive)?;
     let mut names = Vec::new();
-    for entry in std::fs::read_dir(out).map_err(io)? {
-        let name = entry
-            .map_err(io)?
-            .file_name()
-            .to_string_lossy()
-            .into_owned();
+    for entry in std::fs::read_dir(out).at(out)? {
+        let name = entry.at(out)?.file_name().to_string_lossy().into_owned();
         if name.starts_with("manifest.") && name.ends_with(".json") && name != MANIFEST_FILE {
             names.push(name);
         }

@@ -3,10 +3,10 @@
 //! shelves of `wall_decor.rs`).
 
 use super::{BOTTOM, BoxSpec, Builder, FRONT, LEFT, RHO_OBJECT, RIGHT, TOP, WALL_NAMES, Wall};
-use crate::patterns::{Material, hsv};
+use crate::elements::ObjectKind;
+use crate::patterns::Material;
 use crate::quad::Surface;
-use crate::scene::ObjectKind;
-use crate::texture::Rgb;
+use crate::texture::{Rgb, hsv};
 use nalgebra::Vector3;
 use rand::Rng;
 

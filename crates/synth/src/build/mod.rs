@@ -14,9 +14,9 @@ mod furniture;
 mod shell;
 mod wall_decor;
 
+use super::elements::{Edge3, EdgeKind, Object, ObjectKind, ROOM};
 use super::patterns::{LocalEdge, Material, paint};
 use super::quad::{Aabb, Quad, Surface};
-use super::scene::{Edge3, EdgeKind, Object, ObjectKind, ROOM};
 use super::texture::{Texture, hash64, luma};
 use nalgebra::Vector3;
 use rand::Rng;

@@ -2,9 +2,9 @@
 //! rug lying on the floor.
 
 use super::{Builder, RHO_CEILING, RHO_ROOM, walls};
+use crate::elements::{Edge3, EdgeKind, ObjectKind, ROOM};
 use crate::patterns::Material;
 use crate::quad::Surface;
-use crate::scene::{Edge3, EdgeKind, ObjectKind, ROOM};
 use nalgebra::Vector3;
 use rand::Rng;
 

@@ -2,9 +2,10 @@
 //! and a carton, in free wall areas (clear of each other and of tall furniture).
 
 use super::{BoxSpec, Builder, FRONT, LEFT, RHO_OBJECT, RIGHT, WALL_NAMES, Wall, walls};
-use crate::patterns::{Material, hsv};
+use crate::elements::{ObjectKind, ROOM};
+use crate::patterns::Material;
 use crate::quad::Surface;
-use crate::scene::{ObjectKind, ROOM};
+use crate::texture::hsv;
 use nalgebra::Vector3;
 use rand::Rng;
 

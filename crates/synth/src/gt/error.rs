@@ -26,12 +26,10 @@ pub enum GtError {
         #[source]
         source: limap::LimapError,
     },
-    #[error("I/O error on {path}: {source}")]
-    Io {
-        path: PathBuf,
-        #[source]
-        source: std::io::Error,
-    },
+    /// `fileio::IoError` displays `<path>: <source>`: the message stays
+    /// "I/O error on <path>: <source>".
+    #[error("I/O error on {0}")]
+    Io(#[from] fileio::IoError),
     #[error("could not serialise {path}: {source}")]
     Json {
         path: PathBuf,

@@ -1,9 +1,9 @@
 //! Line tracks: each LSD segment is associated to the analytic 3D edge it lies on; an
 //! edge seen in enough images becomes a track spanning its supports.
 
-use super::GtConfig;
-use super::frame::{FrameObservations, SegmentObs, pixel_ray};
-use crate::generate::SynthDataset;
+use super::config::GtConfig;
+use super::observations::{FrameObservations, SegmentObs, pixel_ray};
+use crate::dataset::SynthDataset;
 use crate::scene::Scene;
 use geometry::{Camera, Pose, Vector2, Vector3};
 use std::collections::BTreeMap;

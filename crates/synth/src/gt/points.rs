@@ -1,9 +1,9 @@
 //! 3D point tracks: keypoints of different training images whose exact surface points
 //! agree (voxel hash) and whose SIFT descriptors agree, then pruned by reprojection.
 
-use super::GtConfig;
-use super::frame::{DESCRIPTOR_SCALE, FrameObservations};
-use crate::generate::SynthDataset;
+use super::config::GtConfig;
+use super::observations::{DESCRIPTOR_SCALE, FrameObservations};
+use crate::dataset::SynthDataset;
 use geometry::{Camera, Pose, Vector2, Vector3};
 use std::collections::HashMap;
 

@@ -1,12 +1,14 @@
 //! Writes `<scene>/sfm_gt/`: the COLMAP model (binary, as hloc writes it), the LIMAP
 //! folder and `exact.json`.
 
+use super::config::GtConfig;
 use super::error::GtError;
+use super::ground_truth::GroundTruth;
 use super::noise::{LabelNoise, noise_seed, sigma_per_coordinate_m};
 use super::points::reprojection_error;
-use super::{GroundTruth, GtConfig};
-use crate::generate::SynthDataset;
+use crate::dataset::SynthDataset;
 use colmap::{CameraRecord, INVALID_POINT3D_ID, Point2D, Point3D, Reconstruction, TrackElement};
+use fileio::IoResultExt;
 use geometry::Vector3;
 use limap::{ImageList, LineTrack, Segments};
 use serde::Serialize;
@@ -47,10 +49,7 @@ pub fn write(
     cfg: &GtConfig,
 ) -> Result<(), GtError> {
     let root = scene_dir.join(GT_DIR);
-    std::fs::create_dir_all(&root).map_err(|source| GtError::Io {
-        path: root.clone(),
-        source,
-    })?;
+    std::fs::create_dir_all(&root).at(&root)?;
     let mut noise = LabelNoise::new(cfg.label_noise_cm, dataset.seed);
     let noisy_points: Vec<[f64; 3]> = gt.points.iter().map(|p| noise.perturb(p.xyz)).collect();
     let noisy_lines: Vec<[[f64; 3]; 2]> = gt
@@ -92,12 +91,8 @@ pub fn write(
         source,
     })?;
     let tmp = root.join(format!(".{EXACT_FILE}.tmp"));
-    let io = |p: &Path| {
-        let p = p.to_path_buf();
-        move |source| GtError::Io { path: p, source }
-    };
-    std::fs::write(&tmp, bytes).map_err(io(&tmp))?;
-    std::fs::rename(&tmp, &path).map_err(io(&path))
+    std::fs::write(&tmp, bytes).at(&tmp)?;
+    Ok(std::fs::rename(&tmp, &path).at(&path)?)
 }
 
 fn write_colmap(

@@ -20,6 +20,8 @@ mod painter;
 mod room;
 mod wall_art;
 
+pub use painter::LocalEdge;
+
 use super::texture::{Canvas, Rect, Rgb, Texture};
 use painter::Painter;
 use rand::SeedableRng;
@@ -27,15 +29,6 @@ use rand_chacha::ChaCha8Rng;
 
 /// Minimum luma difference (of the flat colours, before shading) of a listed texture edge.
 pub const MIN_CONTRAST: f32 = 0.12;
-
-/// A straight intensity step inside a texture, in local metres.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct LocalEdge {
-    pub a: [f64; 2],
-    pub b: [f64; 2],
-    /// Luma difference of the flat colours on both sides (0..1).
-    pub contrast: f32,
-}
 
 /// Which recipe paints a quad.
 #[derive(Clone, Debug, PartialEq)]
@@ -124,24 +117,6 @@ pub fn paint(
         })
         .collect();
     (p.canvas.finish(), edges)
-}
-
-/// A colour from hue (0..1), saturation and value.
-pub fn hsv(h: f32, s: f32, v: f32) -> Rgb {
-    let h = (h.rem_euclid(1.0)) * 6.0;
-    let i = h.floor();
-    let f = h - i;
-    let p = v * (1.0 - s);
-    let q = v * (1.0 - s * f);
-    let t = v * (1.0 - s * (1.0 - f));
-    match i as i32 {
-        0 => [v, t, p],
-        1 => [q, v, p],
-        2 => [p, v, t],
-        3 => [p, q, v],
-        4 => [t, p, v],
-        _ => [v, p, q],
-    }
 }
 
 #[cfg(test)]

@@ -3,10 +3,18 @@
 //! scattered blobs, listed rectangle borders, the final grain, random and contrasting
 //! colours.
 
-use super::{LocalEdge, hsv};
-use crate::texture::{Canvas, Ellipse, Octave, Rect, Rgb, hash64, luma, mix, scale};
+use crate::texture::{Canvas, Ellipse, Octave, Rect, Rgb, hash64, hsv, luma, mix, scale};
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
+
+/// A straight intensity step inside a texture, in local metres.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LocalEdge {
+    pub a: [f64; 2],
+    pub b: [f64; 2],
+    /// Luma difference of the flat colours on both sides (0..1).
+    pub contrast: f32,
+}
 
 pub(super) fn random_colour(rng: &mut ChaCha8Rng, s: (f32, f32), v: (f32, f32)) -> Rgb {
     hsv(

@@ -1,8 +1,8 @@
 //! Recipes of the room's own surfaces: wallpaper, ceiling, floor tiles and the rug.
 
+use super::LocalEdge;
 use super::painter::{Painter, contrasting, random_colour};
-use super::{LocalEdge, hsv};
-use crate::texture::{Ellipse, Octave, Rect, Rgb, luma, mix, scale};
+use crate::texture::{Ellipse, Octave, Rect, Rgb, hsv, luma, mix, scale};
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 

@@ -16,7 +16,7 @@
 //! `|x_d|^2 = 1/k`, where no point projects (projection always picks the smaller
 //! distorted radius; COLMAP returns a ray that projects elsewhere).
 
-use super::Intrinsics;
+use super::intrinsics::Intrinsics;
 use crate::camera::CameraModel;
 use nalgebra::{Vector2, Vector3};
 

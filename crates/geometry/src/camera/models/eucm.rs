@@ -6,7 +6,7 @@
 //! ray would not be in front of the camera or the square root is undefined (pixels
 //! outside the image circle `|m|^2 < 1/(beta alpha^2)`).
 
-use super::{Intrinsics, MIN_DEPTH};
+use super::intrinsics::{Intrinsics, MIN_DEPTH};
 use crate::camera::CameraModel;
 use nalgebra::{Vector2, Vector3};
 

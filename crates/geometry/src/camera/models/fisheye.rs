@@ -9,9 +9,9 @@
 //! lens polynomial would allow more. Lifting returns None for an equidistant radius of
 //! pi/2 or more (COLMAP returns an unscaled, meaningless point there).
 
+use super::intrinsics::{Intrinsics, MIN_DEPTH};
 use super::jet::Scalar;
 use super::undistort::undistort;
-use super::{Intrinsics, MIN_DEPTH};
 use crate::camera::CameraModel;
 use nalgebra::{Vector2, Vector3};
 use std::f64::consts::FRAC_PI_2;

@@ -11,7 +11,7 @@
 //! lifting) by `(2 r^2/3 - 1/6) omega^2` relative (5e-3 px at f = 300 px, r = 1.1,
 //! omega = 0.005, checked with pycolmap 4.2.1). We follow the formula.
 
-use super::{Intrinsics, MIN_DEPTH};
+use super::intrinsics::{Intrinsics, MIN_DEPTH};
 use crate::camera::CameraModel;
 use nalgebra::{Vector2, Vector3};
 use std::f64::consts::{FRAC_PI_2, PI};

@@ -5,9 +5,9 @@
 //! iteratively (there is no closed form). Past the fold of a barrel distortion no ray
 //! projects, and lifting returns None (COLMAP's iteration fails there too).
 
+use super::intrinsics::{Intrinsics, MIN_DEPTH};
 use super::jet::Scalar;
 use super::undistort::undistort;
-use super::{Intrinsics, MIN_DEPTH};
 use crate::camera::CameraModel;
 use nalgebra::{Vector2, Vector3};
 
