@@ -290,3 +290,141 @@ fn score_oracle_through_the_command() {
         "{err}"
     );
 }
+
+/// The stderr of a command that must fail (not a panic).
+fn refused(out: std::process::Output, what: &str) -> String {
+    let err = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert!(!out.status.success(), "{what} succeeded: {err}");
+    assert!(!err.contains("panicked"), "{what}: {err}");
+    err
+}
+
+/// No silent wrong result (issue 48) through the binary: a stage reads another stage's
+/// outputs only while that stage's record vouches for them, checks each depth map
+/// against the frames table, reads a shard folder through the one manifest check, and
+/// never writes into another stage's folder. Each refusal leaves no record behind.
+#[test]
+fn stages_read_only_recorded_outputs_and_write_only_their_own_folder() {
+    let p = prepare();
+    let shards = p.root.join("shards");
+    ok(
+        labels_stage("shard", &p, &p.labels, &shards)
+            .output()
+            .unwrap(),
+        "shard",
+    );
+
+    // `pl2map score --out <the import's folder>`: refused, the import's record kept.
+    let import_record = std::fs::read(p.labels.join("stage.json")).unwrap();
+    let err = refused(
+        pl2map()
+            .arg("score")
+            .arg("--shards")
+            .arg(&shards)
+            .arg("--out")
+            .arg(&p.labels)
+            .arg("--oracle")
+            .output()
+            .unwrap(),
+        "score into the import's folder",
+    );
+    assert!(
+        err.contains(&format!(
+            "{} belongs to the import stage (its stage.json says so)",
+            p.labels.display()
+        )),
+        "{err}"
+    );
+    assert_eq!(
+        std::fs::read(p.labels.join("stage.json")).unwrap(),
+        import_record
+    );
+
+    // A manifest edited to drop a shard: score and train both refuse it.
+    let manifest_path = shards.join("manifest.json");
+    let original = std::fs::read(&manifest_path).unwrap();
+    let mut m = shards::Manifest::load(&manifest_path).unwrap();
+    m.shards.remove(0);
+    m.save(&manifest_path).unwrap();
+    let stale = format!(
+        "{}: changed after the shard stage recorded it",
+        manifest_path.display()
+    );
+    let score_out = p.root.join("score");
+    let err = refused(
+        pl2map()
+            .arg("score")
+            .arg("--shards")
+            .arg(&shards)
+            .arg("--out")
+            .arg(&score_out)
+            .arg("--oracle")
+            .output()
+            .unwrap(),
+        "score of an edited manifest",
+    );
+    assert!(err.contains(&stale), "{err}");
+    assert!(!score_out.join("stage.json").exists());
+    let train_out = p.root.join("train");
+    let err = refused(
+        pl2map()
+            .arg("train")
+            .arg("--shards")
+            .arg(&shards)
+            .arg("--out")
+            .arg(&train_out)
+            .args(["--iterations", "1"])
+            .output()
+            .unwrap(),
+        "train on an edited manifest",
+    );
+    assert!(err.contains(&stale), "{err}");
+    assert!(!train_out.join("stage.json").exists() && !train_out.join("model.ckpt").exists());
+    std::fs::write(&manifest_path, original).unwrap();
+
+    // Frame 1's depth map copied over frame 0's after ingest: refine refuses it.
+    let table = tables::FramesTable::read_parquet(&p.frames).unwrap();
+    let (d0, d1) = (
+        table.frames[0].depth_path.clone().unwrap(),
+        table.frames[1].depth_path.clone().unwrap(),
+    );
+    let depth0 = std::fs::read(&d0).unwrap();
+    std::fs::copy(&d1, &d0).unwrap();
+    let refined = p.root.join("refined");
+    let err = refused(
+        refine_cmd(&p, &refined).output().unwrap(),
+        "refine with a changed depth map",
+    );
+    assert!(
+        err.contains(&format!(
+            "{}: the depth map of frame 0 ({}) changed since ingest",
+            d0.display(),
+            table.frames[0].name
+        )),
+        "{err}"
+    );
+    assert!(!refined.join("stage.json").exists());
+    std::fs::write(&d0, depth0).unwrap();
+
+    // The tables a refused import leaves without its record: refine and shard refuse
+    // them (they used to take them, exit 0).
+    std::fs::remove_file(p.labels.join("stage.json")).unwrap();
+    let missing = format!(
+        "{}: missing: points.parquet, lines.parquet, poses.parquet",
+        p.labels.join("stage.json").display()
+    );
+    let err = refused(
+        refine_cmd(&p, &refined).output().unwrap(),
+        "refine of unrecorded tables",
+    );
+    assert!(err.contains(&missing), "{err}");
+    let shards2 = p.root.join("shards2");
+    let err = refused(
+        labels_stage("shard", &p, &p.labels, &shards2)
+            .output()
+            .unwrap(),
+        "shard of unrecorded tables",
+    );
+    assert!(err.contains(&missing), "{err}");
+    assert!(!refined.join("stage.json").exists() && !shards2.join("manifest.json").exists());
+}

@@ -182,6 +182,54 @@ fn errors_name_the_file_and_place() {
     );
 }
 
+/// A model whose camera cannot exist (a focal length of 0 or below) is refused by
+/// `colmap info` and `colmap convert`, naming the file and the camera id, instead of
+/// passing on to the import and refine; `convert` writes nothing (docs/errors.md).
+#[test]
+fn a_camera_that_cannot_exist_is_refused_naming_the_file_and_camera() {
+    let spec = colmap::synthetic::SyntheticSpec {
+        num_points3d: 50,
+        num_images: 4,
+        num_observations: 150,
+        unmatched_per_image: 1,
+        images_per_camera: 2,
+        seed: 2,
+    };
+    let tmp = tempfile::tempdir().unwrap();
+    for (focal, expect) in [(0.0, "f = 0 must be positive"), (-1200.0, "f = -1200 must")] {
+        let mut rec = colmap::synthetic::large_model(&spec);
+        rec.cameras[1].camera.params[0] = focal;
+        for (sub, ext) in [("bin", "bin"), ("txt", "txt")] {
+            let model = tmp.path().join(format!("{sub}{focal}"));
+            if ext == "bin" {
+                rec.write_binary(&model).unwrap();
+            } else {
+                rec.write_text(&model).unwrap();
+            }
+            let out = pl2map(&["colmap".as_ref(), "info".as_ref(), model.as_os_str()]);
+            assert!(!out.status.success(), "info must refuse focal {focal}");
+            let err = String::from_utf8_lossy(&out.stderr);
+            assert!(
+                err.contains(&format!("cameras.{ext}"))
+                    && err.contains("camera #1 (id 2)")
+                    && err.contains(expect),
+                "{err}"
+            );
+            let converted = tmp.path().join(format!("out-{sub}{focal}"));
+            let out = pl2map(&[
+                "colmap".as_ref(),
+                "convert".as_ref(),
+                model.as_os_str(),
+                converted.as_os_str(),
+                "--format".as_ref(),
+                "txt".as_ref(),
+            ]);
+            assert!(!out.status.success(), "convert must refuse focal {focal}");
+            assert!(!converted.exists(), "nothing may be written");
+        }
+    }
+}
+
 /// `pl2map colmap info MODEL | true`: the reader is gone before the first line.
 #[test]
 fn info_with_a_closed_stdout_is_a_quiet_exit() {

@@ -335,3 +335,120 @@ fn a_warm_start_from_a_missing_file_is_refused_before_any_stage() {
     );
     assert!(!dir.path().join("work/synth").exists(), "a stage ran");
 }
+
+/// `pl2map train --resume` continues the checkpoint's run to a new iteration count and
+/// records what it did; a resume asking another setting is refused naming it, and the
+/// finished run keeps its record and model (issue: a resume that trained with the
+/// checkpoint's settings and recorded the ones asked for).
+#[test]
+fn train_resume_continues_to_a_new_count_or_refuses_naming_the_setting() {
+    let dir = tempfile::tempdir().unwrap();
+    let pipeline = tiny_pipeline(dir.path(), 0);
+    let out = run(&pipeline, &["--until", "train"]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let work = dir.path().join("work");
+    let train_dir = work.join("train");
+    let train = |extra: &[&str]| {
+        bin()
+            .args(["train", "--quiet", "--shards"])
+            .arg(work.join("shard"))
+            .arg("--out")
+            .arg(&train_dir)
+            .args(extra)
+            .output()
+            .unwrap()
+    };
+    let model_before = std::fs::read(train_dir.join("model.ckpt")).unwrap();
+    let record_before = std::fs::read(train_dir.join("stage.json")).unwrap();
+    let refused = train(&["--resume", "--iterations", "6", "--learning-rate", "0.01"]);
+    let stderr = text(&refused.stderr);
+    assert!(!refused.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("learning_rate (checkpoint") && stderr.contains("checkpoint.ckpt"),
+        "{stderr}"
+    );
+    assert_eq!(
+        std::fs::read(train_dir.join("model.ckpt")).unwrap(),
+        model_before
+    );
+    assert_eq!(
+        std::fs::read(train_dir.join("stage.json")).unwrap(),
+        record_before
+    );
+
+    let resumed = train(&["--resume", "--iterations", "6"]);
+    let stdout = text(&resumed.stdout);
+    assert!(resumed.status.success(), "{}", text(&resumed.stderr));
+    assert!(stdout.contains("6 iterations"), "{stdout}");
+    assert!(stdout.contains("(resumed at 4)"), "{stdout}");
+    assert_ne!(
+        std::fs::read(train_dir.join("model.ckpt")).unwrap(),
+        model_before
+    );
+    let record = std::fs::read_to_string(train_dir.join("stage.json")).unwrap();
+    // Asked again for what was done: up to date.
+    let again = train(&["--resume", "--iterations", "6"]);
+    assert!(again.status.success(), "{}", text(&again.stderr));
+    assert_eq!(
+        std::fs::read_to_string(train_dir.join("stage.json")).unwrap(),
+        record
+    );
+    assert!(
+        text(&again.stdout).contains("up to date"),
+        "{}",
+        text(&again.stdout)
+    );
+}
+
+/// `pl2map train --init` with a file that is not a checkpoint of the configured network
+/// names that file (not the stage's copy of it) and writes nothing; `--config` takes a
+/// pipeline's `[train]` section as it is, with a partial `[train.model]` table.
+#[test]
+fn train_init_and_config_files_are_checked_before_anything_is_written() {
+    let dir = tempfile::tempdir().unwrap();
+    let pipeline = tiny_pipeline(dir.path(), 0);
+    let out = run(&pipeline, &["--until", "shard"]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let work = dir.path().join("work");
+    let bad = dir.path().join("not-a-model.ckpt");
+    std::fs::write(&bad, b"hello").unwrap();
+    let out_dir = dir.path().join("warm");
+    let refused = bin()
+        .args(["train", "--quiet", "--iterations", "2", "--shards"])
+        .arg(work.join("shard"))
+        .arg("--out")
+        .arg(&out_dir)
+        .arg("--init")
+        .arg(&bad)
+        .output()
+        .unwrap();
+    let stderr = text(&refused.stderr);
+    assert!(!refused.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("not-a-model.ckpt") && !stderr.contains("warm-start.ckpt"),
+        "{stderr}"
+    );
+    assert!(!out_dir.join("warm-start.ckpt").exists());
+    assert!(!out_dir.join("stage.json").exists());
+
+    // The pipeline's [train] section, as the tiny pipeline writes it, with the network
+    // narrowed in a partial [train.model] table.
+    let config = dir.path().join("train.toml");
+    std::fs::write(
+        &config,
+        "[train]\niterations = 2\nseed = 0\n[train.model]\nhead_hidden = [16]\n",
+    )
+    .unwrap();
+    let trained = bin()
+        .args(["train", "--quiet", "--shards"])
+        .arg(work.join("shard"))
+        .arg("--out")
+        .arg(dir.path().join("from-section"))
+        .arg("--config")
+        .arg(&config)
+        .output()
+        .unwrap();
+    let stdout = text(&trained.stdout);
+    assert!(trained.status.success(), "{}", text(&trained.stderr));
+    assert!(stdout.contains("head widths [16]"), "{stdout}");
+}

@@ -353,6 +353,78 @@ fn bad_queries_are_named_and_the_others_localised() {
     }
 }
 
+/// Cameras that cannot exist (a negative focal length, which images the scene turned 180
+/// degrees; a focal length of 0; a principal point at 1e12) are bad input naming the
+/// line and what is wrong, never a pose in results.txt; with `--camera` the command
+/// refuses before anything is written (docs/errors.md).
+#[test]
+fn impossible_cameras_are_refused_not_localised() {
+    let s = scene();
+    let dir = tempfile::tempdir().unwrap();
+    let good = &s.frames.frames[24];
+    let (w, h) = (good.camera.width, good.camera.height);
+    for name in ["neg.png", "zero.png", "far.png"] {
+        std::fs::copy(s.scene.join(&good.name), dir.path().join(name)).unwrap();
+    }
+    let list = format!(
+        "neg.png SIMPLE_PINHOLE {w} {h} -525 {cx} {cy}\n\
+         zero.png SIMPLE_PINHOLE {w} {h} 0 {cx} {cy}\n\
+         far.png SIMPLE_PINHOLE {w} {h} 525 1e12 {cy}\n",
+        cx = w / 2,
+        cy = h / 2
+    );
+    let list_path = dir.path().join("q.txt");
+    std::fs::write(&list_path, list).unwrap();
+    let out = dir.path().join("out");
+    let o = localize(&list_path, dir.path(), &out, 2);
+    assert!(
+        !o.status.success(),
+        "impossible cameras must fail the command"
+    );
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(stderr.contains("3 of 3 queries"), "{stderr}");
+    let table = std::fs::read_to_string(out.join("per_image.csv")).unwrap();
+    let rows: Vec<&str> = table.lines().collect();
+    assert_eq!(rows.len(), 4, "{table}");
+    let q = list_path.display().to_string();
+    for (row, (line, what)) in rows[1..].iter().zip([
+        (1, "focal length f = -525 must be positive and finite"),
+        (2, "focal length f = 0 must be positive and finite"),
+        (3, "principal point cx = 1000000000000"),
+    ]) {
+        assert!(
+            row.contains("bad_input") && row.contains(&format!("{q}:{line}")) && row.contains(what),
+            "line {line}: {row}"
+        );
+    }
+    assert!(lines_of(&out.join("results.txt")).is_empty());
+
+    // One camera for a folder: refused before any image, nothing written.
+    let out = dir.path().join("folder-out");
+    let o = pl2map()
+        .arg("localize")
+        .arg("--checkpoint")
+        .arg(&s.model)
+        .arg("--camera")
+        .arg(format!("SIMPLE_PINHOLE {w} {h} 0 {} {}", w / 2, h / 2))
+        .arg("--images")
+        .arg(dir.path())
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(
+        !o.status.success(),
+        "--camera with focal length 0 must fail"
+    );
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        stderr.contains("--camera") && stderr.contains("focal length f = 0 must be positive"),
+        "{stderr}"
+    );
+    assert!(!out.exists(), "nothing may be written");
+}
+
 #[test]
 fn real_7scenes_queries_give_a_results_file_hloc_reads() {
     let Some(stairs) = testkit::sample::sample_data("7scenes-stairs-mini/stairs") else {
@@ -599,5 +671,71 @@ fn query_segments_from_limap_files() {
         text.contains(&format!("no segments for {}", test[0].name))
             || summary.contains(&format!("no segments for {}", test[0].name)),
         "{text}\n{summary}"
+    );
+}
+
+/// Images that are no images to read: a PNG over the pixel limit and `/dev/zero` are bad
+/// queries naming the list line, the file and what is wrong (too large, with the limit;
+/// not a regular file), read no further than their header and never handed to OpenCV.
+#[cfg(unix)]
+#[test]
+fn oversized_and_special_files_are_bad_queries_named_without_opencv_text() {
+    use image::ImageEncoder;
+    use image::codecs::png::{CompressionType, FilterType, PngEncoder};
+    let s = scene();
+    let dir = tempfile::tempdir().unwrap();
+    let good = &s.frames.frames[24];
+    let cam = camera_spec(&good.camera);
+    let (w, h) = (20_000u32, 20_000u32);
+    let mut huge = Vec::new();
+    PngEncoder::new_with_quality(&mut huge, CompressionType::Fast, FilterType::NoFilter)
+        .write_image(
+            &vec![0u8; w as usize * h as usize],
+            w,
+            h,
+            image::ExtendedColorType::L8,
+        )
+        .unwrap();
+    std::fs::write(dir.path().join("huge.png"), &huge).unwrap();
+    let zero = Path::new("/dev/zero").exists();
+    let mut list = format!("huge.png {cam}\n");
+    if zero {
+        std::os::unix::fs::symlink("/dev/zero", dir.path().join("zero.png")).unwrap();
+        list.push_str(&format!("zero.png {cam}\n"));
+    }
+    let list_path = dir.path().join("q.txt");
+    std::fs::write(&list_path, list).unwrap();
+    let out = dir.path().join("out");
+    let o = localize(&list_path, dir.path(), &out, 2);
+    assert!(!o.status.success(), "bad queries must fail the command");
+    let table = lines_of(&out.join("per_image.csv"));
+    let q = list_path.display().to_string();
+    assert!(
+        table[1].contains("bad_input")
+            && table[1].contains(&format!("{q}:1"))
+            && table[1].contains(&dir.path().join("huge.png").display().to_string())
+            && table[1].contains("the PNG is too large: 20000x20000 is 400000000 pixels")
+            && table[1].contains("the limit is 50000000 pixels"),
+        "{}",
+        table[1]
+    );
+    if zero {
+        assert!(
+            table[2].contains("bad_input")
+                && table[2].contains(&format!("{q}:2"))
+                && table[2].contains("zero.png: not a regular file but a device"),
+            "{}",
+            table[2]
+        );
+    }
+    let all = format!(
+        "{}{}{}",
+        table.join("\n"),
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert!(
+        !all.contains("OpenCV") && !all.contains("Assertion"),
+        "{all}"
     );
 }

@@ -207,6 +207,11 @@ pub enum Problem {
     ReservedPointId,
     #[error("count {count} does not fit in a 32-bit field")]
     CountOverflow { count: usize },
+    /// points3D.txt cut short: a cut between two track elements leaves a valid line,
+    /// so the only sign in the file is a missing line end or a header that promises
+    /// more; `then` is the model check's error that the cut caused.
+    #[error("the file is cut short: {evidence}; the model's check then fails: {then}")]
+    CutShort { evidence: String, then: String },
 }
 
 /// Errors of this crate.

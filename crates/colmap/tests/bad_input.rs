@@ -656,3 +656,133 @@ fn legacy_model_errors_name_the_images_file() {
     assert_eq!(legacy.frames.len(), 3);
     assert_eq!(legacy.images, model().images);
 }
+
+/// A camera that cannot exist (focal length <= 0, size 0, principal point far outside)
+/// is refused by both readers and by `validate`, naming the file and the camera id
+/// (docs/errors.md): it never reaches the import or refine.
+#[test]
+fn impossible_cameras_are_refused_naming_the_file_and_camera_id() {
+    let base = model();
+    for (edit, expect) in [
+        (
+            (&|c: &mut geometry::Camera| c.params[0] = -500.0) as &dyn Fn(&mut geometry::Camera),
+            "focal length fx = -500 must be positive and finite",
+        ),
+        (
+            &|c| c.params[1] = 0.0,
+            "focal length fy = 0 must be positive",
+        ),
+        (&|c| c.width = 0, "camera size 0x480 is invalid"),
+        (
+            &|c| c.params[2] = 1e12,
+            "principal point cx = 1000000000000",
+        ),
+    ] {
+        let mut rec = base.clone();
+        edit(&mut rec.cameras[0].camera);
+        let e = rec.validate().unwrap_err();
+        assert!(e.to_string().contains(expect), "{e}");
+        assert!(e.to_string().contains("camera #0 (id 1)"), "{e}");
+        let e = parse_bin(&files(&rec, Format::Binary)).unwrap_err();
+        assert!(path_of(&e).ends_with("cameras.bin"), "{e}");
+        assert!(
+            e.to_string().contains("camera #0 (id 1)") && e.to_string().contains(expect),
+            "{e}"
+        );
+        let e = parse_txt(&text_files(&rec)).unwrap_err();
+        assert!(path_of(&e).ends_with("cameras.txt"), "{e}");
+        assert_eq!(line_col(&e).0, 4, "{e}");
+        assert!(
+            e.to_string().contains("camera #0 (id 1)") && e.to_string().contains(expect),
+            "{e}"
+        );
+    }
+}
+
+/// The last line of points3D.txt, `ID X Y Z R G B ERROR IMAGE_ID POINT2D_IDX ...`.
+fn cut_last_track_element(text: &str) -> String {
+    let body = text.strip_suffix('\n').unwrap();
+    let mut tokens: Vec<&str> = body.rsplitn(3, ' ').collect();
+    // [POINT2D_IDX, IMAGE_ID, rest]: keep the rest, which ends at a token boundary.
+    let rest = tokens.pop().unwrap();
+    assert_eq!(tokens.len(), 2, "{body:?}");
+    rest.to_string()
+}
+
+/// A points3D.txt cut at a token boundary (between two track elements) still parses:
+/// the cut names points3D.txt and its last line, not the images.txt observation the
+/// lost element leaves dangling (docs/errors.md). The small model and, with the sample
+/// data, a real model written by pycolmap.
+#[test]
+fn points3d_txt_cut_at_a_token_boundary_names_points3d_txt() {
+    // The small model's last point (id 7) has no track: cut the file inside the line
+    // of point 2, before it.
+    let full = text_files(&model());
+    let lines: Vec<&str> = full[2].lines().collect();
+    let point2_line = lines.len() - 1;
+    assert!(lines[point2_line - 1].starts_with("2 "), "{lines:?}");
+    let up_to_point2: String = lines[..point2_line]
+        .iter()
+        .map(|l| format!("{l}\n"))
+        .collect();
+    let mut f = full.clone();
+    f[2] = cut_last_track_element(&up_to_point2);
+    let e = parse_txt(&f).unwrap_err();
+    assert!(path_of(&e).ends_with("points3D.txt"), "{e}");
+    assert_eq!(line_col(&e).0, point2_line, "{e}");
+    assert!(
+        matches!(problem(&e), Problem::CutShort { evidence, then }
+            if evidence.contains("without the line end") && then.contains("images.txt")),
+        "{e}"
+    );
+    // The same cut with the line end put back (a cut at the end of a line): the
+    // header's count of points shows it.
+    f[2].push('\n');
+    let e = parse_txt(&f).unwrap_err();
+    assert!(path_of(&e).ends_with("points3D.txt"), "{e}");
+    assert_eq!(line_col(&e).0, point2_line, "{e}");
+    assert!(
+        e.to_string()
+            .contains("its header (line 3) says 3 points, but it holds 2 (this line is the last)"),
+        "{e}"
+    );
+    // A consistent model without the last line end reads as it is.
+    let mut f = full.clone();
+    f[2].pop();
+    assert_eq!(parse_txt(&f).unwrap(), model());
+
+    let Some(scene) = testkit::sample::sample_data("colmap-maupertuis") else {
+        return;
+    };
+    for sub in ["model-txt", "model-original-txt"] {
+        let tmp = tempfile::tempdir().unwrap();
+        let src = scene.join(sub);
+        for entry in std::fs::read_dir(&src).unwrap() {
+            let entry = entry.unwrap();
+            std::fs::copy(entry.path(), tmp.path().join(entry.file_name())).unwrap();
+        }
+        let points = tmp.path().join("points3D.txt");
+        let text = std::fs::read_to_string(&points).unwrap();
+        let lines = text.lines().count();
+        std::fs::write(&points, cut_last_track_element(&text)).unwrap();
+        let e = colmap::read_text(tmp.path()).unwrap_err();
+        assert_eq!(path_of(&e), points.display().to_string(), "{sub}: {e}");
+        assert_eq!(line_col(&e).0, lines, "{sub}: {e}");
+        assert!(
+            e.to_string().contains("cut short") && e.to_string().contains("images.txt"),
+            "{sub}: {e}"
+        );
+        // Cut at the end of a line: the header's count of points tells.
+        let keep = text.lines().count() - 2;
+        let cut: String = text.lines().take(keep).map(|l| format!("{l}\n")).collect();
+        std::fs::write(&points, cut).unwrap();
+        let e = colmap::read_text(tmp.path()).unwrap_err();
+        assert_eq!(path_of(&e), points.display().to_string(), "{sub}: {e}");
+        assert_eq!(line_col(&e).0, keep, "{sub}: {e}");
+        assert!(
+            e.to_string()
+                .contains("header (line 3) says 1039 points, but it holds 1037"),
+            "{sub}: {e}"
+        );
+    }
+}

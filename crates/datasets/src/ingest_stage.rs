@@ -38,6 +38,8 @@ impl stage::Note for IngestOutput {
 /// `out_dir/stage.json` matches the configuration and the content of every input file;
 /// otherwise writes `depth/` (raw depth), `frames.parquet` and, last, `stage.json`.
 pub fn run(config: &IngestConfig, out_dir: &Path) -> Result<Done<IngestOutput>> {
+    // A file in the way is named as such, not as "File exists".
+    stage::require_folder(out_dir)?;
     std::fs::create_dir_all(out_dir).map_err(io_err(out_dir))?;
     let out_dir = std::fs::canonicalize(out_dir).map_err(io_err(out_dir))?;
     let frames_path = out_dir.join(FRAMES_FILE);
@@ -46,6 +48,19 @@ pub fn run(config: &IngestConfig, out_dir: &Path) -> Result<Done<IngestOutput>> 
     // Registered depth of an earlier ingest run would linger: the maps its record names
     // are removed (anything else in the folder is left alone).
     let previous = stage.previous();
+    // A table written before depth maps were hashed (tables/src/frames.rs) is written
+    // again, whatever its record says: the refine stage refuses depth maps without
+    // their hash.
+    if previous.as_ref().is_some_and(|r| r.stage == STAGE)
+        && FramesTable::read_parquet(&frames_path).is_ok_and(|t| {
+            t.frames
+                .iter()
+                .any(|f| f.depth_path.is_some() && f.depth_hash.is_none())
+        })
+    {
+        tracing::info!("ingest: rerunning (the frames table has no depth hashes)");
+        drop(stage.begin()?);
+    }
     stage.run(
         |_| {
             let table = FramesTable::read_parquet(&frames_path)?;

@@ -100,3 +100,46 @@ fn real_sample_frames_cut_short_are_refused() {
     );
     assert_eq!(e.total, 12);
 }
+
+/// A valid PNG over the pixel limit is refused as too large, naming the file and the
+/// limit; it is not counted among damaged downloads, and nothing is written.
+#[test]
+fn an_oversized_png_is_refused_as_too_large_naming_the_limit() {
+    use image::ImageEncoder;
+    use image::codecs::png::{CompressionType, FilterType, PngEncoder};
+    let dir = tempfile::tempdir().unwrap();
+    let scene = seven_scenes(dir.path(), 640, 480);
+    let png = scene.join("seq-01/frame-000001.color.png");
+    // 20000 x 20000 black pixels: about 1 MB of compressed zeros, 400 MP decoded.
+    let (w, h) = (20_000u32, 20_000u32);
+    let mut bytes = Vec::new();
+    PngEncoder::new_with_quality(&mut bytes, CompressionType::Fast, FilterType::NoFilter)
+        .write_image(
+            &vec![0u8; w as usize * h as usize],
+            w,
+            h,
+            image::ExtendedColorType::L8,
+        )
+        .unwrap();
+    std::fs::write(&png, &bytes).unwrap();
+    let mut config = IngestConfig::new(DatasetKind::SevenScenes, &scene);
+    config.count_check = false;
+    let out = dir.path().join("work/ingest");
+    let e = datasets::ingest_stage::run(&config, &out).unwrap_err();
+    let text = e.to_string();
+    assert_eq!(
+        text,
+        format!(
+            "{}: the PNG is too large: 20000x20000 is 400000000 pixels, the limit is \
+             50000000 pixels (set PL2MAP_MAX_IMAGE_PIXELS to change it)",
+            png.display()
+        )
+    );
+    assert!(
+        !text.contains("damaged") && !text.contains("Memory limit"),
+        "{text}"
+    );
+    for name in ["frames.parquet", "stage.json"] {
+        assert!(!out.join(name).exists(), "{name} was written");
+    }
+}

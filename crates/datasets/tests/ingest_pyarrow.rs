@@ -89,7 +89,8 @@ fn pyarrow_reads_the_frames_table() {
             "ty",
             "tz",
             "depth_path",
-            "content_hash"
+            "content_hash",
+            "depth_hash"
         ]
     );
     let ty = |n: &str| schema.iter().find(|(k, _)| k == n).unwrap().1.clone();
@@ -114,6 +115,11 @@ fn pyarrow_reads_the_frames_table() {
         assert_eq!(cols["split"][row], f.split.as_str());
         assert_eq!(cols["camera_model"][row], "SIMPLE_RADIAL");
         assert_eq!(cols["content_hash"][row], f.content_hash.as_str());
+        assert_eq!(
+            cols["depth_hash"][row],
+            f.depth_hash.as_deref().unwrap(),
+            "the registered depth map's sha256"
+        );
         assert_eq!(
             cols["depth_path"][row],
             f.depth_path.as_ref().unwrap().to_str().unwrap()

@@ -124,3 +124,82 @@ fn same_bytes_for_any_thread_count() {
         assert!(a == b, "{f} differs between 1 and 3 threads");
     }
 }
+
+/// Every depth map goes into the frames table with its content hash (the refine stage
+/// checks the file against it): the registered map as written, a rendered map as found.
+/// A table written before the hashes existed (no `depth_hash` column) is written again
+/// by the next run, even though its record is intact.
+#[test]
+fn depth_maps_are_hashed_and_a_table_without_the_hashes_is_written_again() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = seven_scenes(dir.path(), 16, 12);
+    let out = dir.path().join("raw");
+    let raw = ingest_stage::run(&config(&scene), &out)
+        .unwrap()
+        .output
+        .table;
+    for f in &raw.frames {
+        let p = f.depth_path.as_ref().unwrap();
+        assert_eq!(f.depth_hash, Some(stage::sha256_file(p).unwrap()), "{p:?}");
+    }
+
+    let rendered = dir.path().join("rendered");
+    for name in [
+        "seq-01/frame-000000.depth.png",
+        "seq-01/frame-000001.depth.png",
+        "seq-02/frame-000000.depth.png",
+    ] {
+        testkit::images::write_depth(&rendered.join(name), 16, 12, |x, y| {
+            900 + (x + 3 * y) as u16
+        });
+    }
+    let mut c = config(&scene);
+    c.depth = DepthOption::Rendered(rendered.clone());
+    let out = dir.path().join("rendered-out");
+    let first = ingest_stage::run(&c, &out).unwrap().output.table;
+    for f in &first.frames {
+        let p = f.depth_path.as_ref().unwrap();
+        assert!(p.starts_with(rendered.canonicalize().unwrap()), "{p:?}");
+        assert_eq!(f.depth_hash, Some(stage::sha256_file(p).unwrap()), "{p:?}");
+    }
+
+    // The table as an earlier pl2map wrote it: no depth_hash column, and a record that
+    // matches it (so nothing but the missing hashes makes the stage rerun).
+    let parquet = out.join("frames.parquet");
+    let (mut df, kv) = tables::parquet::read_parquet(&parquet).unwrap();
+    df.drop_in_place("depth_hash").unwrap();
+    let ours = kv.into_iter().filter(|(k, _)| k.starts_with("pl2map."));
+    tables::parquet::write_parquet(&parquet, &mut df, ours.collect()).unwrap();
+    let old = FramesTable::read_parquet(&parquet).unwrap();
+    assert!(old.frames.iter().all(|f| f.depth_hash.is_none()));
+    let mut rec = stage::StageRecord::load(&out).unwrap().unwrap();
+    rec.add_output(&out, "frames.parquet").unwrap();
+    rec.save(&out).unwrap();
+
+    let again = ingest_stage::run(&c, &out).unwrap();
+    assert!(
+        !again.skipped,
+        "a table without depth hashes is not up to date"
+    );
+    assert_eq!(again.output.table, first);
+    assert_eq!(FramesTable::read_parquet(&parquet).unwrap(), first);
+    assert!(ingest_stage::run(&c, &out).unwrap().skipped);
+}
+
+/// An output folder that is a file is named as such (not "File exists (os error 17)").
+#[test]
+fn an_output_folder_that_is_a_file_is_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = seven_scenes(dir.path(), 16, 12);
+    let out = dir.path().join("out");
+    std::fs::write(&out, b"a file").unwrap();
+    let e = ingest_stage::run(&config(&scene), &out).unwrap_err();
+    assert_eq!(
+        e.to_string(),
+        format!(
+            "{} is a file, not a folder: choose another folder",
+            out.display()
+        )
+    );
+    assert_eq!(std::fs::read(&out).unwrap(), b"a file");
+}

@@ -4,7 +4,6 @@
 //! +0.5. The conversion happens here and nowhere else.
 
 use crate::error::{CvContext, FeatureError};
-use fileio::IoResultExt;
 use image::{GrayImage, RgbImage};
 use opencv::boxed_ref::BoxedRef;
 use opencv::core::{CV_8UC1, Mat, MatTraitConst, MatTraitConstManual};
@@ -45,13 +44,21 @@ pub(crate) fn mat_view(img: &GrayImage) -> Result<BoxedRef<'_, Mat>, FeatureErro
 /// conversion. The `image` crate's `to_luma8` weights the channels as BT.709 and differs
 /// on about half the pixels of a real colour frame, so no grey path of this project uses it.
 ///
-/// The bytes are not checked for completeness here (a JPEG cut short decodes with its
-/// missing part filled in): callers that read files a user gave check them first with
-/// `tables::image_file::check_complete`.
+/// The header is read first and an image over the pixel limit
+/// (`fileio::image::max_image_pixels`) is refused before OpenCV allocates anything:
+/// shards carry the image files' bytes, and a header can ask for gigabytes. Bytes that
+/// are neither a PNG nor a JPEG header are refused too. The rest is not checked for
+/// completeness here (a JPEG cut short decodes with its missing part filled in): callers
+/// that read files a user gave read them with [`crate::image_file::read_image`] and
+/// check them with `tables::image_file::check_complete`.
 pub fn decode_gray(bytes: &[u8]) -> Result<GrayImage, FeatureError> {
     if bytes.is_empty() {
         return Err(FeatureError::Decode("the file is empty".into()));
     }
+    fileio::image::check_bytes(bytes).map_err(|e| match e.kind() {
+        std::io::ErrorKind::InvalidData => FeatureError::Decode(e.to_string()),
+        _ => FeatureError::Limit(e.to_string()),
+    })?;
     let buf = Mat::from_slice(bytes).cv("wrap the file's bytes")?;
     let mat = imgcodecs::imdecode(&buf, imgcodecs::IMREAD_GRAYSCALE).cv("decode an image")?;
     if mat.empty() {
@@ -72,11 +79,11 @@ pub fn decode_gray(bytes: &[u8]) -> Result<GrayImage, FeatureError> {
     })
 }
 
-/// Reads an image file (PNG or JPEG) as 8-bit grey, as [`decode_gray`] does.
+/// Reads an image file (PNG or JPEG) as 8-bit grey, as [`decode_gray`] does. The file is
+/// read within bounds (`fileio::image::read_image`: no device or FIFO, the header and
+/// the pixel limit first, no more bytes than the header's image can take).
 pub fn load_gray(path: &Path) -> Result<GrayImage, FeatureError> {
-    let bytes = std::fs::read(path)
-        .at(path)
-        .map_err(FeatureError::ReadImage)?;
+    let bytes = fileio::image::read_image(path).map_err(FeatureError::ReadImage)?;
     decode_gray(&bytes).map_err(|e| FeatureError::Image {
         path: path.to_path_buf(),
         reason: match e {

@@ -18,6 +18,10 @@ pub enum FeatureError {
     /// Image bytes that OpenCV's decoder refuses (the caller names the file or frame).
     #[error("cannot decode the image: {0}")]
     Decode(String),
+    /// An image over the pixel limit (`fileio::image::max_image_pixels`), or an
+    /// unreadable limit setting: refused before decoding.
+    #[error("{0}")]
+    Limit(String),
     #[error("image {width}x{height} is too large or empty for OpenCV")]
     ImageSize { width: u32, height: u32 },
     #[error("OpenCV returned {got} descriptors for {expected} positions")]

@@ -37,6 +37,9 @@ pub use convert::{decode_gray, gray_from_rgb, load_gray};
 pub use dense::{DenseMap, OrientedGradients};
 pub use error::FeatureError;
 pub use extract::{describe_points_and_lines, extract, extract_batch, extract_per_call};
+/// Reading image files within bounds and the pixel limit (`fileio::image`), for the
+/// crates above this one that read images.
+pub use fileio::image as image_file;
 pub use frontend::{Described, FrontEnd, LabelledImage, SiftFrontEnd};
 pub use image_features::{Detections, ImageFeatures};
 pub use kind::{FrontEndKind, SUPERPOINT_DIM};

@@ -6,8 +6,13 @@
 //! `#[error(transparent)] Io(#[from] fileio::IoError)`, and turns an `io::Result` into it
 //! with [`io_err`] (`.map_err(io_err(&path))?`) or [`IoResultExt::at`]
 //! (`fs::read(&path).at(&path)?`).
+//!
+//! [`image`] reads image files within bounds (the header first, the pixel limit, no
+//! device or FIFO): every crate that reads a PNG or JPEG from disk goes through it.
 
 #![forbid(unsafe_code)]
+
+pub mod image;
 
 use std::path::{Path, PathBuf};
 

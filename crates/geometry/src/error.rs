@@ -20,8 +20,26 @@ pub enum GeometryError {
         name: &'static str,
         value: f64,
     },
-    #[error("camera size {width}x{height} is invalid")]
+    #[error("camera size {width}x{height} is invalid: width and height must be positive")]
     InvalidSize { width: u64, height: u64 },
+    #[error("{what} {name} = {value} must be positive and finite")]
+    NonPositiveParam {
+        what: &'static str,
+        name: &'static str,
+        value: f64,
+    },
+    #[error(
+        "principal point {name} = {value} lies more than an image size outside the \
+         {width}x{height} image (expected {low} <= {name} <= {high})"
+    )]
+    PrincipalPointOutside {
+        name: &'static str,
+        value: f64,
+        width: u64,
+        height: u64,
+        low: f64,
+        high: f64,
+    },
     #[error("non-finite value in {what}")]
     NonFinite { what: &'static str },
     #[error("quaternion has norm {norm}, expected 1 (tolerance {tolerance})")]

@@ -89,7 +89,10 @@ impl DepthMap {
         };
         // `load_from_memory` (the format from the bytes) rather than `image::open`,
         // which is generic over its reader and so compiled every decoder again here.
-        let bytes = std::fs::read(path).map_err(|e| read_err(image::ImageError::IoError(e)))?;
+        // Within bounds (no device or FIFO, the pixel limit checked on the header first):
+        // crates/fileio/src/image.rs.
+        let bytes = fileio::image::read_image(path)
+            .map_err(|e| read_err(image::ImageError::IoError(e.source)))?;
         let img = image::load_from_memory(&bytes).map_err(read_err)?;
         match img {
             DynamicImage::ImageLuma16(d) => {

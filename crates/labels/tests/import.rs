@@ -209,6 +209,84 @@ fn explicit_name_mappings_join_renamed_models() {
     });
 }
 
+/// The scene's LIMAP folder as LIMAP 1.x's runners wrote it: image ids from 0 (the
+/// positions in LIMAP's image collection) and `image_list.txt` in the list form
+/// (`save_txt_imname_list`: the count, then one name per line) with `root` before every
+/// name.
+fn as_limap_1x_list(scene: &mut Scene, root: impl Fn(usize) -> String) {
+    for (id, _) in &mut scene.image_list.images {
+        *id -= 1;
+    }
+    scene.segments = std::mem::take(&mut scene.segments)
+        .into_iter()
+        .map(|(id, s)| (id - 1, s))
+        .collect();
+    for t in &mut scene.tracks {
+        for id in &mut t.image_ids {
+            *id -= 1;
+        }
+    }
+    scene.write_limap();
+    let mut text = format!("number of images, {}\n", scene.image_list.len());
+    for (k, (_, name)) in scene.image_list.images.iter().enumerate() {
+        text.push_str(&format!("{}{name}\n", root(k)));
+    }
+    std::fs::write(scene.limap_dir.join("image_list.txt"), text).unwrap();
+}
+
+/// LIMAP 1.x's absolute image paths in its list-form image_list.txt import without a
+/// `limap_names` mapping: the dataset root common to every name is stripped, the report
+/// (import_report.json and the printed table) says which, and the labels are those of
+/// the same scene with relative names.
+#[test]
+fn limap_1x_absolute_paths_in_the_list_form_import_with_the_root_stripped() {
+    let plain = Scene::build(&SceneOptions::default());
+    let (p, plain_tables) = import(&plain, &ImportConfig::default(), "plain");
+    assert_eq!(p.output.report.limap.root_prefix_stripped, None);
+
+    let mut scene = Scene::build(&SceneOptions::default());
+    let root = format!("{}/", scene.dir.path().join("data/7scenes/box").display());
+    as_limap_1x_list(&mut scene, |_| root.clone());
+    let (out, t) = import(&scene, &ImportConfig::default(), "labels");
+    let rep = &out.output.report;
+    assert_eq!(
+        rep.limap.root_prefix_stripped.as_deref(),
+        Some(root.as_str())
+    );
+    assert!(
+        rep.table()
+            .contains(&format!("LIMAP names: the dataset root {root:?} stripped")),
+        "{}",
+        rep.table()
+    );
+    let json = std::fs::read_to_string(scene.out("labels").join("import_report.json")).unwrap();
+    assert!(
+        json.contains(&format!("\"root_prefix_stripped\": {root:?}")),
+        "{json}"
+    );
+    assert_eq!(t.points, plain_tables.points);
+    assert_eq!(t.lines, plain_tables.lines);
+    assert_eq!(rep.lines.valid, p.output.report.lines.valid);
+    // LIMAP's ids are the list's positions: one less than the model's, which the report
+    // explains instead of suspecting a model of another run.
+    for row in &t.poses {
+        assert_eq!(row.limap_image_id + 1, row.sfm_image_id, "{}", row.name);
+    }
+    assert_eq!(
+        rep.warnings,
+        [format!(
+            "{} training frame(s) have a LIMAP image id different from their COLMAP image id \
+             (joined by name; LIMAP numbers these images by position from 0, as LIMAP 1.x did)",
+            t.poses.len()
+        )]
+    );
+    // Without the report field when the names join as they are (the synthetic pipeline's
+    // report keeps its bytes).
+    let plain_json =
+        std::fs::read_to_string(plain.out("plain").join("import_report.json")).unwrap();
+    assert!(!plain_json.contains("root_prefix_stripped"), "{plain_json}");
+}
+
 #[test]
 fn same_inputs_give_the_same_bytes_and_reruns_are_skipped() {
     let scene = Scene::build(&SceneOptions {

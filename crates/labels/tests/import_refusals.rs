@@ -192,6 +192,26 @@ fn refuses_limap_names_that_match_no_frame() {
     has(&e, "train_frame_not_in_limap", "training frame 3");
 }
 
+/// Absolute LIMAP names under two different roots: no single prefix explains every
+/// name, so none is stripped (never a guess per name) and the names are refused as
+/// they are, with nothing written.
+#[test]
+fn limap_names_under_two_roots_are_refused_as_they_are() {
+    let mut s = scene();
+    for (k, (_, n)) in s.image_list.images.iter_mut().enumerate() {
+        let root = if k == 0 { "/data/a/" } else { "/data/b/" };
+        *n = format!("{root}{n}");
+    }
+    s.write_limap();
+    let e = refuse(&s, &ImportConfig::default());
+    has(
+        &e,
+        "limap_image_not_in_dataset",
+        "LIMAP image 1 \"/data/a/seq-01/frame-000000.color.png\" (as dataset name \
+         \"/data/a/seq-01/frame-000000.color.png\") is not in the frames table",
+    );
+}
+
 #[test]
 fn refuses_names_the_mapping_does_not_apply_to() {
     let s = scene();

@@ -142,7 +142,7 @@ fn upstream_projection_sampling_only_corrects_along_the_ray() {
 
 #[test]
 fn observations_without_valid_depth_lose_their_label() {
-    let scene = Scene::build(&SceneOptions::default());
+    let mut scene = Scene::build(&SceneOptions::default());
     let labels = import(&scene);
     // Punch a hole (0 = no depth) into the depth map of frame 0 around its first
     // labelled keypoint.
@@ -172,6 +172,9 @@ fn observations_without_valid_depth_lose_their_label() {
         }
     }
     depth.save(&path).unwrap();
+    // Ingested again with the new depth map (its hash), and so imported again.
+    scene.rehash_depth();
+    import(&scene);
     let o = refine_stage::run(
         &RefineConfig::default(),
         &scene.frames_path,
@@ -199,12 +202,13 @@ fn observations_without_valid_depth_lose_their_label() {
 
 #[test]
 fn refuses_depth_maps_of_another_size() {
-    let scene = Scene::build(&SceneOptions::default());
-    import(&scene);
+    let mut scene = Scene::build(&SceneOptions::default());
     let f = &scene.train_frames()[1];
     image::ImageBuffer::<image::Luma<u16>, Vec<u16>>::from_pixel(320, 240, image::Luma([1000]))
         .save(f.depth_path.as_ref().unwrap())
         .unwrap();
+    scene.rehash_depth();
+    import(&scene);
     let e = refine_stage::run(
         &RefineConfig::default(),
         &scene.frames_path,
@@ -225,12 +229,13 @@ fn refuses_depth_maps_of_another_size() {
 
 #[test]
 fn refuses_depth_maps_that_are_not_16_bit() {
-    let scene = Scene::build(&SceneOptions::default());
-    import(&scene);
+    let mut scene = Scene::build(&SceneOptions::default());
     let f = &scene.train_frames()[2];
     image::GrayImage::from_pixel(640, 480, image::Luma([7]))
         .save(f.depth_path.as_ref().unwrap())
         .unwrap();
+    scene.rehash_depth();
+    import(&scene);
     let e = refine_stage::run(
         &RefineConfig::default(),
         &scene.frames_path,
@@ -269,6 +274,7 @@ fn refuses_labels_of_another_frames_table_and_tables_without_depth() {
 
     for f in &mut scene.table.frames {
         f.depth_path = None;
+        f.depth_hash = None;
     }
     scene.table.meta.depth_source = "none".into();
     scene.write_frames();
@@ -288,7 +294,7 @@ fn refuses_labels_of_another_frames_table_and_tables_without_depth() {
 
 #[test]
 fn same_bytes_for_any_thread_count_and_reruns_are_skipped() {
-    let scene = noisy_scene();
+    let mut scene = noisy_scene();
     import(&scene);
     let run_with = |threads: usize, out: &str| {
         testkit::on_threads(threads, || {
@@ -309,12 +315,25 @@ fn same_bytes_for_any_thread_count_and_reruns_are_skipped() {
         folder_bytes(&scene.out("two"))
     );
     assert!(run_with(2, "one").skipped);
-    // A changed depth map is a changed input.
+    // A changed depth map (ingested again) is a changed input.
     let f = &scene.train_frames()[0];
     let path = f.depth_path.clone().unwrap();
     let mut depth = image::open(&path).unwrap().into_luma16();
     depth.put_pixel(0, 0, image::Luma([0]));
     depth.save(&path).unwrap();
+    scene.rehash_depth();
+    import(&scene);
+    let run_with = |threads: usize, out: &str| {
+        testkit::on_threads(threads, || {
+            refine_stage::run(
+                &RefineConfig::default(),
+                &scene.frames_path,
+                &scene.out("labels"),
+                &scene.out(out),
+            )
+            .unwrap()
+        })
+    };
     assert!(!run_with(1, "one").skipped);
 }
 
@@ -363,7 +382,7 @@ fn paint_depth(scene: &Scene, frame: u32, points: &[[f64; 2]], r: f64, mm: u16) 
 
 #[test]
 fn observations_that_disagree_with_the_others_are_rejected() {
-    let scene = Scene::build(&SceneOptions::default());
+    let mut scene = Scene::build(&SceneOptions::default());
     let labels = import(&scene);
     // A point seen in at least three frames: its observation in one frame reads an
     // occluder at 1 m.
@@ -398,6 +417,8 @@ fn observations_that_disagree_with_the_others_are_rejected() {
         })
         .collect();
     paint_depth(&scene, bad.frame_id, &half, 3.0, 1000);
+    scene.rehash_depth();
+    import(&scene);
 
     let o = refine_stage::run(
         &RefineConfig::default(),
@@ -442,4 +463,153 @@ fn observations_that_disagree_with_the_others_are_rejected() {
             .min(0.5 * (d3(&e[0], &g[1]) + d3(&e[1], &g[0])));
         assert!(err < 2e-3, "{err}");
     }
+}
+
+/// The refine stage's out folder holds nothing under a final name after a refusal.
+fn assert_nothing_written(dir: &std::path::Path) {
+    for f in [
+        "stage.json",
+        "points.parquet",
+        "lines.parquet",
+        "poses.parquet",
+    ] {
+        assert!(!dir.join(f).exists(), "{f} written");
+    }
+}
+
+/// Frame 1's depth map copied over frame 0's after ingest: refused, naming the file,
+/// the frame and both hashes (frame 0 would be refined against frame 1's depth).
+#[test]
+fn refuses_a_depth_map_changed_since_ingest() {
+    let scene = Scene::build(&SceneOptions::default());
+    import(&scene);
+    let (f0, f1) = (&scene.train_frames()[0], &scene.train_frames()[1]);
+    let (d0, d1) = (
+        f0.depth_path.clone().unwrap(),
+        f1.depth_path.clone().unwrap(),
+    );
+    std::fs::copy(&d1, &d0).unwrap();
+    let out = scene.out("refined");
+    let e = refine_stage::run(
+        &RefineConfig::default(),
+        &scene.frames_path,
+        &scene.out("labels"),
+        &out,
+    )
+    .unwrap_err();
+    assert!(matches!(e, RefineError::DepthChanged { .. }), "{e:?}");
+    assert_eq!(
+        e.to_string(),
+        format!(
+            "{}: the depth map of frame 0 ({}) changed since ingest (sha256 {}, the frames \
+             table says {}): run the ingest again",
+            d0.display(),
+            f0.name,
+            stage::sha256_file(&d1).unwrap(),
+            f0.depth_hash.as_deref().unwrap()
+        )
+    );
+    assert_nothing_written(&out);
+}
+
+/// A frames table written before depth maps were hashed: its depth maps are refused
+/// (the ingest writes the table again, crates/datasets/tests/ingest_stage.rs).
+#[test]
+fn refuses_depth_maps_without_a_hash() {
+    let scene = Scene::build(&SceneOptions::default());
+    let mut df = scene.table.to_dataframe(&scene.frames_path).unwrap();
+    df.drop_in_place("depth_hash").unwrap();
+    let (_, kv) = tables::parquet::read_parquet(&scene.frames_path).unwrap();
+    let ours = kv.into_iter().filter(|(k, _)| k.starts_with("pl2map."));
+    tables::parquet::write_parquet(&scene.frames_path, &mut df, ours.collect()).unwrap();
+    let dir = scene.frames_path.parent().unwrap();
+    let mut rec = stage::StageRecord::load(dir).unwrap().unwrap();
+    rec.add_output(dir, "frames.parquet").unwrap();
+    rec.save(dir).unwrap();
+    import(&scene);
+    let out = scene.out("refined");
+    let e = refine_stage::run(
+        &RefineConfig::default(),
+        &scene.frames_path,
+        &scene.out("labels"),
+        &out,
+    )
+    .unwrap_err();
+    assert!(
+        e.to_string().ends_with(
+            "frame 0 (seq-01/frame-000000.color.png) has a depth map but no depth hash (a \
+             frames table written before depth maps were hashed): run the ingest again"
+        ),
+        "{e}"
+    );
+    assert_nothing_written(&out);
+}
+
+/// The refine stage reads the import's tables and the frames table only as their stages
+/// recorded them: tables a refused import left (no record), tables changed after the
+/// import, a frames table without its record, another stage's folder are each refused,
+/// naming the file and the stage to run again, and nothing is written.
+#[test]
+fn refuses_tables_their_stage_did_not_record() {
+    let scene = Scene::build(&SceneOptions::default());
+    import(&scene);
+    let labels = scene.out("labels");
+    let out = scene.out("refined");
+    let refine = |labels: &std::path::Path| {
+        refine_stage::run(&RefineConfig::default(), &scene.frames_path, labels, &out)
+            .unwrap_err()
+            .to_string()
+    };
+
+    // A refused rerun of the import removes its record and may leave the tables.
+    let record = std::fs::read(labels.join("stage.json")).unwrap();
+    std::fs::remove_file(labels.join("stage.json")).unwrap();
+    let e = refine(&labels);
+    assert_eq!(
+        e,
+        format!(
+            "{}: missing: points.parquet, lines.parquet, poses.parquet in {} are not the \
+             outputs of a finished import or refine run (a refused or killed run leaves no \
+             record): run the import or refine stage again",
+            labels.join("stage.json").display(),
+            labels.display()
+        )
+    );
+    assert_nothing_written(&out);
+
+    // Tables changed after the import recorded them.
+    std::fs::write(labels.join("stage.json"), &record).unwrap();
+    let points = std::fs::read(labels.join("points.parquet")).unwrap();
+    std::fs::copy(labels.join("lines.parquet"), labels.join("points.parquet")).unwrap();
+    let e = refine(&labels);
+    assert!(
+        e.starts_with(&format!(
+            "{}: changed after the import stage recorded it",
+            labels.join("points.parquet").display()
+        )) && e.ends_with("run the import stage again"),
+        "{e}"
+    );
+    assert_nothing_written(&out);
+    std::fs::write(labels.join("points.parquet"), points).unwrap();
+
+    // Another stage's folder.
+    let ingest = scene.frames_path.parent().unwrap();
+    let e = refine(ingest);
+    assert!(
+        e.contains("the record of the ingest stage, expected the import or refine stage's"),
+        "{e}"
+    );
+
+    // A frames table without its record (a refused ingest).
+    std::fs::remove_file(ingest.join("stage.json")).unwrap();
+    let e = refine(&labels);
+    assert!(
+        e.starts_with(&ingest.join("stage.json").display().to_string())
+            && e.contains("frames.parquet in")
+            && e.ends_with("run the ingest stage again"),
+        "{e}"
+    );
+    assert_nothing_written(&out);
+    scene.write_frames();
+    refine_stage::run(&RefineConfig::default(), &scene.frames_path, &labels, &out).unwrap();
 }

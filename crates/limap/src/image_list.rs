@@ -1,12 +1,21 @@
-//! `image_list.txt`: LIMAP's image ids and names (`save_txt_imname_dict`).
+//! `image_list.txt`: LIMAP's image ids and names, in either of the two forms LIMAP writes.
 //!
 //! ```text
-//! number of images, N
-//! <id>, <name>       (N lines)
+//! number of images, N                 number of images, N
+//! <id>, <name>       (N lines)        <name>             (N lines)
 //! ```
-//! LIMAP strips each line, splits on commas and drops the first character after the comma.
-//! This reader splits at the first comma only and drops one space after it when present, so
-//! it also reads `id,name` and names that contain commas (which LIMAP itself would cut).
+//! The id form (`save_txt_imname_dict`, left) is what LIMAP's line triangulation writes
+//! today. LIMAP strips each line, splits on commas and drops the first character after
+//! the comma. This reader splits at the first comma only and drops one space after it when
+//! present, so it also reads `id,name` and names that contain commas (which LIMAP itself
+//! would cut).
+//!
+//! The list form (`save_txt_imname_list`, right) is what LIMAP 1.x's runners wrote: one
+//! name per line, often an absolute path, the image id being the line's position from 0
+//! (the position in LIMAP's image collection, which its segments and track files use).
+//! LIMAP strips each line; so does this reader. The first image line says which form a
+//! file has: a comma, or a first word that is a number, make it the id form.
+//!
 //! Ids and names must be unique: the label import joins LIMAP to COLMAP by name.
 
 use std::collections::HashMap;
@@ -78,8 +87,100 @@ pub fn parse_image_list(text: &str) -> Result<ImageList, ParseError> {
         }
     };
 
+    let mut lines = lines.peekable();
+    let list_form = lines
+        .peek()
+        .is_some_and(|(_, first)| is_list_form_line(first));
+    let images = if list_form {
+        parse_names(&mut lines, count, header_no, text.len())?
+    } else {
+        parse_entries(&mut lines, count, header_no, text.len())?
+    };
+    for (line_no, line) in lines {
+        if !line.trim().is_empty() {
+            return Err(ParseError {
+                line: line_no,
+                column: leading_ws(line) + 1,
+                expected: format!("end of file after {count} images (count on line {header_no})"),
+                found: quote(line.trim()),
+            });
+        }
+    }
+    Ok(ImageList { images })
+}
+
+/// Whether the first image line is a bare name (LIMAP's list form): no comma, and a
+/// first word that is not a number (`1 a.png` is an id line that lacks its comma).
+fn is_list_form_line(line: &str) -> bool {
+    let line = line.trim();
+    let first_word = line.split_ascii_whitespace().next().unwrap_or("");
+    !line.is_empty() && !line.contains(',') && !first_word.bytes().all(|b| b.is_ascii_digit())
+}
+
+/// The list form: `count` names, ids 0, 1, ... by position.
+fn parse_names<'a>(
+    lines: &mut impl Iterator<Item = (usize, &'a str)>,
+    count: u64,
+    header_no: usize,
+    text_len: usize,
+) -> Result<Vec<(u32, String)>, ParseError> {
+    // Each entry is at least "a\n".
+    let capacity = crate::text::bounded_capacity(count, text_len, 2);
+    let mut images = Vec::with_capacity(capacity);
+    let mut seen_names: HashMap<String, usize> = HashMap::with_capacity(capacity);
+    for k in 0..count {
+        let Some((line_no, raw)) = lines.next() else {
+            return Err(ParseError {
+                line: header_no + k as usize + 1,
+                column: 1,
+                expected: format!("image {} of {count} (a name: the list form)", k + 1),
+                found: "end of file".into(),
+            });
+        };
+        let column = leading_ws(raw) + 1;
+        let name = raw.trim();
+        if name.is_empty() {
+            return Err(ParseError {
+                line: line_no,
+                column,
+                expected: format!(
+                    "image {} of {count}: a name (the list form: one name per line, ids by \
+                     position from 0)",
+                    k + 1
+                ),
+                found: "an empty line".into(),
+            });
+        }
+        let Ok(id) = u32::try_from(k) else {
+            return Err(ParseError {
+                line: line_no,
+                column,
+                expected: "at most 2^32 images (ids are 32-bit)".into(),
+                found: format!("image {}", k + 1),
+            });
+        };
+        if let Some(first) = seen_names.insert(name.to_string(), line_no) {
+            return Err(ParseError {
+                line: line_no,
+                column,
+                expected: format!("a new image name (already on line {first})"),
+                found: quote(name),
+            });
+        }
+        images.push((id, name.to_string()));
+    }
+    Ok(images)
+}
+
+/// The id form: `count` lines `id, name`.
+fn parse_entries<'a>(
+    lines: &mut impl Iterator<Item = (usize, &'a str)>,
+    count: u64,
+    header_no: usize,
+    text_len: usize,
+) -> Result<Vec<(u32, String)>, ParseError> {
     // Each entry is at least "0, a\n".
-    let capacity = crate::text::bounded_capacity(count, text.len(), 5);
+    let capacity = crate::text::bounded_capacity(count, text_len, 5);
     let mut images = Vec::with_capacity(capacity);
     let mut seen_ids: HashMap<u32, usize> = HashMap::with_capacity(capacity);
     let mut seen_names: HashMap<String, usize> = HashMap::with_capacity(capacity);
@@ -136,17 +237,7 @@ pub fn parse_image_list(text: &str) -> Result<ImageList, ParseError> {
         }
         images.push((id, name.to_string()));
     }
-    for (line_no, line) in lines {
-        if !line.trim().is_empty() {
-            return Err(ParseError {
-                line: line_no,
-                column: leading_ws(line) + 1,
-                expected: format!("end of file after {count} images (count on line {header_no})"),
-                found: quote(line.trim()),
-            });
-        }
-    }
-    Ok(ImageList { images })
+    Ok(images)
 }
 
 /// Writes the list as LIMAP does (`id, name` per line).
@@ -221,6 +312,51 @@ mod tests {
         assert!(e.expected.contains("line 2"), "{e}");
         let e = parse_image_list("number of images, 2\n3, a\n4, a\n").unwrap_err();
         assert!(e.expected.contains("line 2"), "{e}");
+    }
+
+    /// LIMAP's list form (`save_txt_imname_list`: the count, then one name per line, as
+    /// LIMAP 1.x's runners wrote absolute paths): ids are the positions from 0.
+    #[test]
+    fn the_list_form_gives_ids_by_position() {
+        let text = "number of images, 3\n/data/7scenes/stairs/seq-02/frame-000000.color.png\n\
+                    /data/7scenes/stairs/seq-02/frame-000020.color.png\n  a b.png \r\n";
+        let l = parse_image_list(text).unwrap();
+        assert_eq!(
+            l.images,
+            vec![
+                (
+                    0,
+                    "/data/7scenes/stairs/seq-02/frame-000000.color.png".to_string()
+                ),
+                (
+                    1,
+                    "/data/7scenes/stairs/seq-02/frame-000020.color.png".to_string()
+                ),
+                (2, "a b.png".to_string()),
+            ]
+        );
+        // Relative names and a later name with a comma (which only the first line decides
+        // against).
+        let l = parse_image_list("number of images, 2\nseq-01/x.png\n3, y.png\n").unwrap();
+        assert_eq!(l.name(1), Some("3, y.png"));
+    }
+
+    #[test]
+    fn list_form_errors_name_the_line() {
+        let e = parse_image_list("number of images, 3\na.png\n\nb.png\n").unwrap_err();
+        assert_eq!((e.line, e.column), (3, 1));
+        assert!(
+            e.expected.contains("image 2 of 3: a name (the list form"),
+            "{e}"
+        );
+        let e = parse_image_list("number of images, 2\na.png\n a.png\n").unwrap_err();
+        assert_eq!((e.line, e.column), (3, 2));
+        assert!(e.expected.contains("already on line 2"), "{e}");
+        let e = parse_image_list("number of images, 2\na.png\n").unwrap_err();
+        assert_eq!(e.line, 3);
+        assert!(e.expected.contains("image 2 of 2"), "{e}");
+        let e = parse_image_list("number of images, 1\na.png\nb.png\n").unwrap_err();
+        assert!(e.expected.contains("end of file after 1 images"), "{e}");
     }
 
     #[test]

@@ -256,13 +256,31 @@ impl Pipeline {
     }
 }
 
-/// The work folder: `work` when given, else the file's; absolute and valid UTF-8.
+/// The work folder: `work` when given, else the file's; absolute, valid UTF-8, and not
+/// a file (nor under one).
 fn work_folder(r: &Resolver, file: &PipelineFile, work: Option<PathBuf>) -> Result<PathBuf> {
+    let given = work.is_some();
     let work = match work {
         Some(w) => w,
         None => r.path(&["work"], &file.work)?,
     };
     let work = absolute(&work)?;
+    if let Err(stage::StageError::NotAFolder { path, .. }) = stage::require_folder(&work) {
+        let within = if path == work {
+            String::new()
+        } else {
+            format!(" (in {})", work.display())
+        };
+        let message = format!(
+            "{} is a file, not a folder{within}: choose another work folder",
+            path.display()
+        );
+        return Err(if given {
+            r.config(message)
+        } else {
+            r.value(&["work"], message)
+        });
+    }
     // Stage records, frames tables and manifests hold paths as text.
     if work.to_str().is_none() {
         return Err(r.config(format!(
@@ -629,6 +647,68 @@ mod tests {
                 _ => panic!("{section}: not at its key: {e}"),
             }
         }
+    }
+
+    /// A work folder that is a file (or under one) is named as such when the file
+    /// loads, at the line of `work`, not reported later as "File exists (os error 17)".
+    #[test]
+    fn a_work_folder_that_is_a_file_is_named() {
+        let dir = tempfile::tempdir().unwrap();
+        let file = dir.path().join("w");
+        std::fs::write(&file, b"x").unwrap();
+        let text = format!("work = \"{}\"\n[synth]\ntiny = true\n", file.display());
+        let e = resolve(&text).unwrap_err().to_string();
+        assert_eq!(
+            e,
+            format!(
+                "/p/x.toml:1:8: work: {} is a file, not a folder: choose another work folder",
+                file.display()
+            )
+        );
+        let below = file.join("sub");
+        let e = resolve(&format!(
+            "work = \"{}\"\n[synth]\ntiny = true\n",
+            below.display()
+        ))
+        .unwrap_err()
+        .to_string();
+        assert!(
+            e.contains(&format!(
+                "{} is a file, not a folder (in {}): choose another work folder",
+                file.display(),
+                below.display()
+            )),
+            "{e}"
+        );
+        // `--work` names the file too.
+        let f = parse::<PipelineFile>(&text, Path::new("/p/x.toml")).unwrap();
+        let e = Pipeline::resolve(
+            f,
+            &text,
+            Path::new("/p/x.toml"),
+            Path::new("/p"),
+            Some(file.clone()),
+            &[],
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("is a file, not a folder"), "{e}");
+        assert_eq!(std::fs::read(&file).unwrap(), b"x");
+    }
+
+    /// `work = "${VAR}/w"` with VAR set to "" is refused, not written to `/w`.
+    #[test]
+    fn an_empty_variable_in_the_work_folder_is_refused() {
+        // SAFETY: this test is the only one reading this variable.
+        unsafe { std::env::set_var("PL2MAP_TEST_CONFIG_EMPTY", "") };
+        let e = resolve("work = \"${PL2MAP_TEST_CONFIG_EMPTY}/w\"\n[synth]\ntiny = true\n")
+            .unwrap_err()
+            .to_string();
+        assert_eq!(
+            e,
+            "/p/x.toml:1:8: work: environment variable PL2MAP_TEST_CONFIG_EMPTY is set but \
+             empty (used in \"${PL2MAP_TEST_CONFIG_EMPTY}/w\")"
+        );
     }
 
     #[test]

@@ -2,7 +2,8 @@
 //! template come from the environment, so one committed file serves every machine.
 
 /// Replaces every `${NAME}` by the value `lookup` gives; `$$` is a literal `$`. An
-/// unset variable or an unclosed `${` is an error naming it.
+/// unset or empty variable or an unclosed `${` is an error naming it: an empty value
+/// would turn `${DATA}/w` into `/w`, a path nobody meant.
 pub fn expand(s: &str, lookup: impl Fn(&str) -> Option<String>) -> Result<String, String> {
     let mut out = String::with_capacity(s.len());
     let mut rest = s;
@@ -22,6 +23,11 @@ pub fn expand(s: &str, lookup: impl Fn(&str) -> Option<String>) -> Result<String
             }
             let value = lookup(name)
                 .ok_or_else(|| format!("environment variable {name} is not set (used in {s:?})"))?;
+            if value.is_empty() {
+                return Err(format!(
+                    "environment variable {name} is set but empty (used in {s:?})"
+                ));
+            }
             out.push_str(&value);
             rest = &tail[end + 1..];
         } else {
@@ -48,7 +54,11 @@ mod tests {
     use super::*;
 
     fn env(name: &str) -> Option<String> {
-        (name == "DATA").then(|| "/data/7scenes".to_string())
+        match name {
+            "DATA" => Some("/data/7scenes".to_string()),
+            "EMPTY" => Some(String::new()),
+            _ => None,
+        }
     }
 
     #[test]
@@ -63,6 +73,15 @@ mod tests {
         assert!(e.contains("NOPE is not set"), "{e}");
         assert!(expand("${DATA", env).unwrap_err().contains("unclosed"));
         assert!(expand("${A B}", env).unwrap_err().contains("bad variable"));
+    }
+
+    /// `${EMPTY}/w` with EMPTY="" is refused like an unset variable, not read as `/w`.
+    #[test]
+    fn an_empty_variable_is_refused() {
+        assert_eq!(
+            expand("${EMPTY}/w", env).unwrap_err(),
+            "environment variable EMPTY is set but empty (used in \"${EMPTY}/w\")"
+        );
     }
 
     #[test]

@@ -71,12 +71,13 @@ impl Lock {
                 outputs.insert(rel.to_string(), stage::sha256_file(&path)?);
             }
         }
-        let manifest_path = p.stage_dir(StageName::Shard).join(shards::MANIFEST_FILE);
-        let manifest =
-            shards::Manifest::load(&manifest_path).map_err(|e| PipelineError::Stage {
+        // The one manifest check of every reader (crates/shards/src/shard_stage/checked.rs).
+        let manifest = shards::checked_manifest(&p.stage_dir(StageName::Shard)).map_err(|e| {
+            PipelineError::Stage {
                 stage: "shard",
-                message: format!("{}: {e}", manifest_path.display()),
-            })?;
+                message: e.to_string(),
+            }
+        })?;
         let mut pipeline = p.file.clone();
         // Training and scoring do not make the shards: not part of the lock.
         pipeline.train = None;

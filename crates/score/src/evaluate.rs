@@ -208,6 +208,19 @@ fn run_variant(
     let result = estimate_pose(camera, points, lines, options);
     let ms = t.elapsed().as_secs_f64() * 1e3;
     match result {
+        // RANSAC's final count in pixels can reach 0 (a camera or correspondences that
+        // no pose explains): no inlier supports such a pose, so it is no pose.
+        Ok(est) if est.num_point_inliers + est.num_line_inliers == 0 => VariantResult {
+            pose: None,
+            error: None,
+            failure: Some("no inliers support the pose RANSAC returned".into()),
+            point_inliers: 0,
+            line_inliers: 0,
+            iterations: est.iterations,
+            ms,
+            point_inlier_mask: Vec::new(),
+            line_inlier_mask: Vec::new(),
+        },
         Ok(est) => VariantResult {
             error: None,
             pose: Some(est.pose),
@@ -314,6 +327,47 @@ pub fn measure(r: &mut FrameResult, gt: &Pose) {
 mod tests {
     use super::*;
     use crate::localiser::{LineCorrespondence, PointCorrespondence};
+
+    /// A pose that no correspondence supports in the end (a camera whose principal point
+    /// lies 1e12 px away, built past the readers' checks) is no pose, not "localised".
+    #[test]
+    fn a_pose_without_inliers_is_no_pose() {
+        use geometry::{CameraModel, Vector2, Vector3};
+        let good = Camera::new(
+            CameraModel::SimplePinhole,
+            640,
+            480,
+            vec![525.0, 320.0, 240.0],
+        )
+        .unwrap();
+        let far = Camera {
+            params: vec![525.0, 1e12, 240.0],
+            ..good.clone()
+        };
+        let points: Vec<PointMatch> = (0..40)
+            .map(|i| {
+                let world = Vector3::new(
+                    (i % 7) as f64 * 0.3 - 1.0,
+                    (i % 5) as f64 * 0.2 - 0.5,
+                    3.0 + (i % 3) as f64,
+                );
+                let (u, v) = (
+                    525.0 * world.x / world.z + 320.0,
+                    525.0 * world.y / world.z + 240.0,
+                );
+                PointMatch {
+                    pixel: Vector2::new(u, v),
+                    world,
+                }
+            })
+            .collect();
+        let options = RansacOptions::default();
+        let sane = run_variant(&good, &points, &[], &options);
+        assert!(sane.pose.is_some() && sane.point_inliers > 30, "{sane:?}");
+        let r = run_variant(&far, &points, &[], &options);
+        assert!(r.pose.is_none(), "{r:?}");
+        assert_eq!(r.point_inliers + r.line_inliers, 0);
+    }
 
     fn corr() -> Correspondences {
         let p = |r| PointCorrespondence::new([1.0, 2.0], [0.0, 0.0, 1.0], r);

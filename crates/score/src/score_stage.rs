@@ -14,7 +14,7 @@ use crate::oracle::OracleLocaliser;
 use crate::scoring::{SUMMARY_JSON_FILE, score_shards_with_visual};
 use crate::summary::Summary;
 use serde::{Deserialize, Serialize};
-use shards::{Manifest, Split};
+use shards::Split;
 use stage::{Done, Stage};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -143,7 +143,7 @@ impl stage::Note for ScoreStageOutput {
 /// (`shard/<file>` -> sha256).
 fn shard_inputs(shards_dir: &Path, split: Split) -> Result<BTreeMap<String, String>, ScoreError> {
     let path = shards_dir.join(shards::MANIFEST_FILE);
-    let manifest = Manifest::load(&path).map_err(|e| ScoreError::Manifest {
+    let manifest = shards::checked_manifest(shards_dir).map_err(|e| ScoreError::Manifest {
         path: path.clone(),
         reason: e.to_string(),
     })?;

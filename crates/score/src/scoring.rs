@@ -8,7 +8,7 @@ use crate::localiser::{Localiser, TestFrame, Timing, split_name};
 use crate::summary::{Summary, summarize_variant};
 use fileio::io_err;
 use shards::{MANIFEST_FILE, shards_of_split};
-use shards::{Manifest, ShardReader, Split};
+use shards::{ShardReader, Split};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -33,17 +33,12 @@ pub struct ScoreOutput {
 
 /// The shard files of `split` listed in the folder's complete manifest.
 pub fn shard_paths(shards_dir: &Path, split: Split) -> Result<Vec<PathBuf>, ScoreError> {
-    let path = shards_dir.join(MANIFEST_FILE);
-    let manifest = Manifest::load(&path).map_err(|e| ScoreError::Manifest {
-        path: path.clone(),
+    // The one manifest check of every reader (crates/shards/src/shard_stage/checked.rs):
+    // the shard stage's record, the shards' hashes, a complete plan.
+    let manifest = shards::checked_manifest(shards_dir).map_err(|e| ScoreError::Manifest {
+        path: shards_dir.join(MANIFEST_FILE),
         reason: e.to_string(),
     })?;
-    if !manifest.is_complete() {
-        return Err(ScoreError::IncompleteManifest {
-            path,
-            missing: manifest.missing_shards(),
-        });
-    }
     let paths: Vec<PathBuf> = shards_of_split(&manifest, split)
         .into_iter()
         .map(|s| shards_dir.join(&s.file))

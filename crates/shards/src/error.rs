@@ -130,4 +130,9 @@ pub enum ShardError {
     DigestCount { digests: usize, shards: usize },
     #[error("cannot merge manifests: {0}")]
     ManifestMerge(String),
+    #[error(
+        "{}: the manifest is incomplete ({reason}): run the shard stage to the end",
+        path.display()
+    )]
+    IncompleteManifest { path: PathBuf, reason: String },
 }

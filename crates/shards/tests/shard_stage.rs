@@ -29,6 +29,16 @@ fn scene_with_labels() -> Scene {
     scene
 }
 
+/// Records hand-written label tables in `dir` as an import run would (the shard stage
+/// reads label tables only with their record).
+fn record_labels(dir: &std::path::Path) {
+    let mut rec = stage::StageRecord::new("import", String::new(), Default::default());
+    for f in tables::labels::LABEL_FILES {
+        rec.add_output(dir, f).unwrap();
+    }
+    rec.save(dir).unwrap();
+}
+
 fn config(frames_per_shard: usize) -> ShardStageConfig {
     ShardStageConfig {
         frames_per_shard,
@@ -203,6 +213,7 @@ fn only_shards_whose_frames_changed_are_rewritten() {
     let labels2 = scene.out("labels2");
     std::fs::create_dir_all(&labels2).unwrap();
     tables.write(&labels2).unwrap();
+    record_labels(&labels2);
     let holder = m
         .shards
         .iter()
@@ -330,6 +341,7 @@ fn refuses_labels_that_miss_training_frames() {
     t.points.retain(|p| p.frame_id != 2);
     t.lines.retain(|p| p.frame_id != 2);
     t.write(&scene.out("labels")).unwrap();
+    record_labels(&scene.out("labels"));
     let e = shard_stage::run(
         &config(3),
         &scene.frames_path,
@@ -384,4 +396,175 @@ fn the_manifest_records_the_line_track_set() {
     let text = std::fs::read_to_string(scene.out("shards-final").join(shard_stage::MANIFEST_FILE))
         .unwrap();
     assert!(!text.contains("line_tracks"), "{text}");
+}
+
+/// Nothing of a refused shard run is left under a final name.
+fn assert_nothing_written(out: &std::path::Path) {
+    assert!(!out.join(shard_stage::MANIFEST_FILE).exists());
+    assert!(!out.join("stage.json").exists());
+    let mcap = std::fs::read_dir(out)
+        .map(|d| {
+            d.filter(|e| {
+                e.as_ref()
+                    .is_ok_and(|e| e.path().extension().is_some_and(|x| x == "mcap"))
+            })
+            .count()
+        })
+        .unwrap_or(0);
+    assert_eq!(mcap, 0, "shards written into {}", out.display());
+}
+
+/// The shard stage reads the label tables and the frames table only as their stages
+/// recorded them: the tables a refused import left behind (its record removed), a table
+/// changed after its stage ran, a frames table without its record, another stage's
+/// folder given as the labels are each refused naming the file and the stage to run,
+/// and nothing is written.
+#[test]
+fn refuses_tables_their_stage_did_not_record() {
+    let scene = scene_with_labels();
+    let labels = scene.out("labels");
+    let out = scene.out("shards");
+    let shard = |labels: &std::path::Path| {
+        shard_stage::run(&config(3), &scene.frames_path, labels, &out, None)
+            .unwrap_err()
+            .to_string()
+    };
+
+    let record = std::fs::read(labels.join("stage.json")).unwrap();
+    std::fs::remove_file(labels.join("stage.json")).unwrap();
+    let e = shard(&labels);
+    assert_eq!(
+        e,
+        format!(
+            "{}: missing: points.parquet, lines.parquet, poses.parquet in {} are not the \
+             outputs of a finished import or refine run (a refused or killed run leaves no \
+             record): run the import or refine stage again",
+            labels.join("stage.json").display(),
+            labels.display()
+        )
+    );
+    assert_nothing_written(&out);
+
+    std::fs::write(labels.join("stage.json"), &record).unwrap();
+    let mut t = LabelTables::read(&labels).unwrap();
+    t.poses[0].pose = geometry::Pose::identity();
+    t.write(&labels).unwrap();
+    let e = shard(&labels);
+    assert!(
+        e.starts_with(&format!(
+            "{}: changed after the import stage recorded it",
+            labels.join("poses.parquet").display()
+        )) && e.ends_with("run the import stage again"),
+        "{e}"
+    );
+    assert_nothing_written(&out);
+
+    let ingest = scene.frames_path.parent().unwrap();
+    let e = shard(ingest);
+    assert!(
+        e.contains("the record of the ingest stage, expected the import or refine stage's"),
+        "{e}"
+    );
+    assert_nothing_written(&out);
+
+    // The frames table: changed after ingest, then without its record.
+    let mut other = scene.table.clone();
+    other.meta.scene = "other".into();
+    other.write_parquet(&scene.frames_path).unwrap();
+    let e = shard(&scene.out("labels"));
+    assert!(
+        e.starts_with(&format!(
+            "{}: changed after the ingest stage recorded it",
+            scene.frames_path.display()
+        )),
+        "{e}"
+    );
+    std::fs::remove_file(ingest.join("stage.json")).unwrap();
+    let e = shard(&scene.out("labels"));
+    assert!(
+        e.contains("frames.parquet in") && e.ends_with("run the ingest stage again"),
+        "{e}"
+    );
+    assert_nothing_written(&out);
+}
+
+/// The one manifest check of every reader (train, score, lock): a manifest edited to drop
+/// a shard, a shard replaced after the stage ran, a folder without the stage's record,
+/// and an incomplete manifest are refused, naming the file and what to run.
+#[test]
+fn readers_check_the_manifest_against_the_record() {
+    let scene = scene_with_labels();
+    let out = scene.out("shards");
+    let done = run_all(&scene, 2, &out);
+    assert_eq!(
+        shards::checked_manifest(&out).unwrap(),
+        done.output.manifest
+    );
+    let manifest_path = out.join(shard_stage::MANIFEST_FILE);
+    let original = std::fs::read(&manifest_path).unwrap();
+    let record = std::fs::read(out.join("stage.json")).unwrap();
+
+    // One training shard dropped from the list, the plan edited to match.
+    let mut edited = done.output.manifest.clone();
+    let dropped = edited.shards.remove(1);
+    edited.planned_shards -= 1;
+    edited.planned_frames -= dropped.frame_count;
+    edited.save(&manifest_path).unwrap();
+    let e = shards::checked_manifest(&out).unwrap_err().to_string();
+    assert!(
+        e.starts_with(&format!(
+            "{}: changed after the shard stage recorded it",
+            manifest_path.display()
+        )) && e.ends_with("run the shard stage again"),
+        "{e}"
+    );
+
+    // Dropped from the list only, with a record to match: still incomplete.
+    let mut edited = done.output.manifest.clone();
+    edited.shards.remove(1);
+    edited.save(&manifest_path).unwrap();
+    let mut rec = stage::StageRecord::load(&out).unwrap().unwrap();
+    rec.add_output(&out, shard_stage::MANIFEST_FILE).unwrap();
+    rec.save(&out).unwrap();
+    let e = shards::checked_manifest(&out).unwrap_err().to_string();
+    assert_eq!(
+        e,
+        format!(
+            "{}: the manifest is incomplete (missing shard(s) [1], {} of {} planned frames \
+             listed): run the shard stage to the end",
+            manifest_path.display(),
+            done.output.manifest.planned_frames - dropped.frame_count,
+            done.output.manifest.planned_frames
+        )
+    );
+    std::fs::write(&manifest_path, &original).unwrap();
+    std::fs::write(out.join("stage.json"), &record).unwrap();
+
+    // A shard replaced by another (valid) shard after the stage ran.
+    let (a, b) = (
+        &done.output.manifest.shards[0],
+        &done.output.manifest.shards[1],
+    );
+    let keep = std::fs::read(out.join(&a.file)).unwrap();
+    std::fs::copy(out.join(&b.file), out.join(&a.file)).unwrap();
+    let e = shards::checked_manifest(&out).unwrap_err().to_string();
+    assert!(
+        e.contains(&format!(
+            "{}: changed after the shard stage recorded it (sha256 {}",
+            a.file, b.sha256
+        )) && e.ends_with("run the shard stage again"),
+        "{e}"
+    );
+    std::fs::write(out.join(&a.file), keep).unwrap();
+    assert!(shards::checked_manifest(&out).is_ok());
+
+    // No record: the manifest a refused or killed run left is not read.
+    std::fs::remove_file(out.join("stage.json")).unwrap();
+    let e = shards::checked_manifest(&out).unwrap_err().to_string();
+    assert!(
+        e.starts_with(&out.join("stage.json").display().to_string())
+            && e.contains("manifest.json in")
+            && e.ends_with("run the shard stage again"),
+        "{e}"
+    );
 }

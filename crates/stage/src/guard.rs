@@ -76,6 +76,7 @@ impl FolderGuard {
         mode: GuardMode,
         wait: bool,
     ) -> Result<FolderGuard, StageError> {
+        crate::require_folder(dir)?;
         std::fs::create_dir_all(dir).map_err(io_err(dir))?;
         let path = dir.join(name);
         let mut file = OpenOptions::new()

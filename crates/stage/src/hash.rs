@@ -11,6 +11,16 @@ pub fn sha256_bytes(bytes: &[u8]) -> String {
 
 /// sha256 of a file's contents, streamed.
 pub fn sha256_file(path: &Path) -> Result<String, StageError> {
+    // Inputs are files: a device (`/dev/zero`), a FIFO or a folder would be read
+    // forever, or block, instead of being refused.
+    let meta = std::fs::metadata(path).map_err(io_err(path))?;
+    if !meta.is_file() {
+        return Err(io_err(path)(std::io::Error::new(
+            std::io::ErrorKind::InvalidInput,
+            "not a regular file: an input must be a file",
+        ))
+        .into());
+    }
     let mut f = std::fs::File::open(path).map_err(io_err(path))?;
     let mut h = Sha256::new();
     let mut buf = vec![0u8; 1 << 20];
@@ -51,6 +61,15 @@ pub fn hash_config<T: Serialize>(config: &T) -> Result<String, StageError> {
 
 #[cfg(test)]
 mod tests {
+    /// `/dev/zero` (and any non-file) is refused by name at once, not hashed forever.
+    #[test]
+    fn a_device_or_folder_is_refused_not_hashed() {
+        for p in ["/dev/zero", "/"] {
+            let e = sha256_file(Path::new(p)).unwrap_err().to_string();
+            assert!(e.contains(p) && e.contains("not a regular file"), "{e}");
+        }
+    }
+
     use super::*;
 
     #[test]

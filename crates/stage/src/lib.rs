@@ -8,7 +8,9 @@
 //! - `stage.json` ([`RECORD_FILE`], [`StageRecord`]): what a stage ran with and what it
 //!   wrote;
 //! - progress bars, hidden when stderr is not a terminal or when asked to be quiet;
-//! - one writer per folder ([`FolderGuard`]).
+//! - one writer per folder ([`FolderGuard`]);
+//! - a stage reads another stage's outputs only while that stage's record vouches for
+//!   them ([`recorded_outputs`]), and never writes into another stage's folder.
 //!
 //! Every stage crate depends on this one and on no other stage crate for it.
 
@@ -24,8 +26,8 @@ pub use atomic::{AtomicFile, write_atomic};
 pub use guard::{FolderGuard, GUARD_FILE, GuardMode, set_wait};
 pub use hash::{hash_config, sha256_bytes, sha256_file, sha256_files};
 pub use progress::{progress_bar, set_quiet};
-pub use record::{RECORD_FILE, RecordCheck, StageRecord};
-pub use runner::{Done, Note, Outputs, Stage};
+pub use record::{RECORD_FILE, RecordCheck, StageRecord, recorded_file, recorded_outputs};
+pub use runner::{Done, Note, Outputs, Stage, require_folder};
 
 use std::path::PathBuf;
 use thiserror::Error;
@@ -49,4 +51,38 @@ pub enum StageError {
         dir.display()
     )]
     Busy { dir: PathBuf, holder: String },
+    /// A stage folder (or a folder above it) that is a file.
+    #[error("{} is a file, not a folder{}: choose another folder", path.display(), within_note(path, within))]
+    NotAFolder { path: PathBuf, within: PathBuf },
+    /// A stage asked to write into the folder of another stage (`pl2map score --out
+    /// <work>/train`): refused before anything there is touched.
+    #[error(
+        "{} belongs to the {found} stage (its {RECORD_FILE} says so): the {stage} stage does not \
+         write into another stage's folder; choose another folder",
+        dir.display()
+    )]
+    OtherStage {
+        dir: PathBuf,
+        found: String,
+        stage: String,
+    },
+    /// Files a reader takes from another stage's folder that the folder's record does not
+    /// vouch for (no record, another stage's record, a file changed after it was
+    /// recorded): [`recorded_outputs`].
+    #[error("{}: {reason}: run the {stages} stage again", path.display())]
+    NotRecorded {
+        path: PathBuf,
+        /// The stage(s) that write these files (`import or refine`).
+        stages: String,
+        reason: String,
+    },
+}
+
+/// ` (in <within>)` when the file is a folder above the one asked for.
+fn within_note(path: &std::path::Path, within: &std::path::Path) -> String {
+    if path == within {
+        String::new()
+    } else {
+        format!(" (in {})", within.display())
+    }
 }

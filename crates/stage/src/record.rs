@@ -2,7 +2,7 @@ use crate::{StageError, sha256_file, write_atomic};
 use fileio::io_err;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// `stage.json`: what a stage ran with and what it produced.
 #[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -119,6 +119,109 @@ impl StageRecord {
     }
 }
 
+/// The record of another stage's folder, for a stage that reads `files` from it: the
+/// folder's `stage.json` must be there, be the record of one of `stages`, and list every
+/// file of `files` with the content hash the file has now (each is hashed). A refused or
+/// killed run removes its record first (crates/stage/src/runner.rs) but may leave the
+/// outputs of an earlier run, and a file may be edited or copied over after its stage
+/// ran: without this check a reader would take either for the stage's output. The
+/// record's `outputs` then hold the hashes of `files`, ready to be the reader's inputs.
+pub fn recorded_outputs(
+    dir: &Path,
+    stages: &[&str],
+    files: &[&str],
+) -> Result<StageRecord, StageError> {
+    let record_path = dir.join(RECORD_FILE);
+    let refuse = |path: PathBuf, stages: String, reason: String| StageError::NotRecorded {
+        path,
+        stages,
+        reason,
+    };
+    let any = stages.join(" or ");
+    let rec = match StageRecord::load(dir) {
+        Ok(Some(rec)) => rec,
+        Ok(None) => {
+            let what = if files.is_empty() {
+                "the folder".to_string()
+            } else {
+                files.join(", ")
+            };
+            return Err(refuse(
+                record_path,
+                any.clone(),
+                format!(
+                    "missing: {what} in {} are not the outputs of a finished {any} run (a \
+                     refused or killed run leaves no record)",
+                    dir.display()
+                ),
+            ));
+        }
+        Err(StageError::Record { path, source }) => {
+            return Err(refuse(
+                path,
+                any.clone(),
+                format!("not a readable stage record ({source})"),
+            ));
+        }
+        Err(e) => return Err(e),
+    };
+    if !stages.contains(&rec.stage.as_str()) {
+        return Err(refuse(
+            record_path,
+            any.clone(),
+            format!(
+                "the record of the {} stage, expected the {any} stage's",
+                rec.stage
+            ),
+        ));
+    }
+    for rel in files {
+        let path = dir.join(rel);
+        let reason = match rec.outputs.get(*rel) {
+            None => format!(
+                "not among the outputs {} lists ({} stage)",
+                record_path.display(),
+                rec.stage
+            ),
+            Some(_) if !path.is_file() => format!(
+                "missing, though {} lists it ({} stage)",
+                record_path.display(),
+                rec.stage
+            ),
+            Some(recorded) => {
+                let now = sha256_file(&path)?;
+                if &now == recorded {
+                    continue;
+                }
+                format!(
+                    "changed after the {} stage recorded it (sha256 {now}, {} says {recorded})",
+                    rec.stage,
+                    record_path.display()
+                )
+            }
+        };
+        return Err(refuse(path, rec.stage.clone(), reason));
+    }
+    Ok(rec)
+}
+
+/// [`recorded_outputs`] for one file given by its path (a frames table): its content
+/// hash, as recorded and as it is now.
+pub fn recorded_file(path: &Path, stages: &[&str]) -> Result<String, StageError> {
+    let dir = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    let name = path
+        .file_name()
+        .and_then(|n| n.to_str())
+        .ok_or_else(|| StageError::Path {
+            path: path.to_path_buf(),
+        })?;
+    let mut rec = recorded_outputs(dir, stages, &[name])?;
+    Ok(rec.outputs.remove(name).unwrap_or_default())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -175,5 +278,87 @@ mod tests {
             RecordCheck::Changed(why) => assert!(why.contains("written by version 0.1.0"), "{why}"),
             other => panic!("{other:?}"),
         }
+    }
+
+    fn recorded(d: &Path, stage: &str, files: &[(&str, &[u8])]) {
+        let mut rec = StageRecord::new(stage, "c".into(), BTreeMap::new());
+        for (rel, bytes) in files {
+            write_atomic(d.join(rel), bytes).unwrap();
+            rec.add_output(d, rel).unwrap();
+        }
+        rec.save(d).unwrap();
+    }
+
+    /// A reader takes another stage's files only while that stage's record vouches for
+    /// them: no record, another stage's record, a file the record does not list, a
+    /// missing or changed file are each refused, naming the file and the stage to run.
+    #[test]
+    fn readers_take_only_recorded_outputs() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        let files = ["points.parquet", "poses.parquet"];
+        recorded(
+            d,
+            "import",
+            &[("points.parquet", b"p"), ("poses.parquet", b"q")],
+        );
+        let rec = recorded_outputs(d, &["import", "refine"], &files).unwrap();
+        assert_eq!(rec.outputs["points.parquet"], crate::sha256_bytes(b"p"));
+
+        // A refused rerun removed the record and left the tables.
+        std::fs::remove_file(d.join(RECORD_FILE)).unwrap();
+        let e = recorded_outputs(d, &["import", "refine"], &files).unwrap_err();
+        let msg = e.to_string();
+        assert!(
+            msg.contains(&d.join(RECORD_FILE).display().to_string())
+                && msg.contains("missing: points.parquet, poses.parquet")
+                && msg.contains("run the import or refine stage again"),
+            "{msg}"
+        );
+
+        recorded(d, "shard", &[("points.parquet", b"p")]);
+        let msg = recorded_outputs(d, &["import", "refine"], &files)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            msg.contains("the record of the shard stage, expected the import or refine"),
+            "{msg}"
+        );
+
+        recorded(d, "refine", &[("points.parquet", b"p")]);
+        let msg = recorded_outputs(d, &["import", "refine"], &files)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            msg.contains("poses.parquet: not among the outputs")
+                && msg.contains("run the refine stage again"),
+            "{msg}"
+        );
+
+        recorded(
+            d,
+            "import",
+            &[("points.parquet", b"p"), ("poses.parquet", b"q")],
+        );
+        std::fs::write(d.join("poses.parquet"), b"stale").unwrap();
+        let msg = recorded_outputs(d, &["import"], &files)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            msg.contains("poses.parquet: changed after the import stage recorded it")
+                && msg.contains(&crate::sha256_bytes(b"stale")),
+            "{msg}"
+        );
+        std::fs::remove_file(d.join("poses.parquet")).unwrap();
+        let msg = recorded_outputs(d, &["import"], &files)
+            .unwrap_err()
+            .to_string();
+        assert!(msg.contains("poses.parquet: missing, though"), "{msg}");
+
+        std::fs::write(d.join(RECORD_FILE), b"{").unwrap();
+        let msg = recorded_outputs(d, &["import"], &files)
+            .unwrap_err()
+            .to_string();
+        assert!(msg.contains("not a readable stage record"), "{msg}");
     }
 }

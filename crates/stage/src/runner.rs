@@ -5,14 +5,19 @@
 //! 2. [`Stage::run`]: when the folder's `stage.json` matches (same stage, version,
 //!    configuration, inputs, and every recorded output still has its recorded hash)
 //!    nothing runs and `load` reads the existing outputs back; otherwise the old record
-//!    is removed first (from then on the folder does not claim to be complete), `work`
-//!    writes the outputs through [`Outputs`] (each file atomically, under a temp name
-//!    and renamed), and the new record is written last, atomically;
+//!    is removed first (from then on the folder does not claim to be complete) and the
+//!    outputs it listed with it, `work` writes the outputs through [`Outputs`] (each
+//!    file atomically, under a temp name and renamed), and the new record is written
+//!    last, atomically;
 //! 3. [`Done`]: the output, whether the stage was skipped, how long it took, and the
 //!    report line a person reads (`<stage>: ran in 1.2 s: 300 frames`).
 //!
 //! A record that cannot be parsed (a crash of another tool, a hand edit) counts as no
-//! record: the stage runs again. Stages whose outputs are produced in several runs
+//! record: the stage runs again. A folder whose record names another stage is refused
+//! before anything in it is touched (a stage run with another stage's folder as its
+//! output would otherwise replace that stage's record), and so is a path that is a file.
+//! A stage that reads another stage's outputs takes them through
+//! [`crate::recorded_outputs`]. Stages whose outputs are produced in several runs
 //! (the shard stage's work units) use [`Stage::check`] and [`Outputs::finish`]
 //! directly.
 
@@ -94,6 +99,18 @@ impl Stage {
     ) -> Result<Self, StageError> {
         let dir = dir.into();
         let config_hash = hash_config(config)?;
+        // Before anything is created or removed: the folder is a folder, and not the
+        // folder of another stage (whose record this run would remove).
+        require_folder(&dir)?;
+        if let Ok(Some(rec)) = StageRecord::load(&dir)
+            && rec.stage != name
+        {
+            return Err(StageError::OtherStage {
+                dir,
+                found: rec.stage,
+                stage: name.to_string(),
+            });
+        }
         let guard = Arc::new(FolderGuard::acquire(&dir, mode)?);
         // Held alone, the folder has no other writer: what killed runs left there goes
         // now, whether or not this run rewrites anything.
@@ -184,7 +201,13 @@ impl Stage {
             RecordCheck::Missing => {}
             RecordCheck::Changed(why) => tracing::info!("{}: rerunning ({why})", self.name),
         }
+        let previous = self.previous().filter(|r| r.stage == self.name);
         let mut outputs = self.begin()?;
+        // The outputs of the earlier run go with its record: a run refused from here on
+        // leaves neither, so nothing of the earlier run is taken for this one's.
+        if let Some(rec) = previous {
+            remove_outputs(&self.dir, &rec)?;
+        }
         let output = work(&mut outputs)?;
         outputs.finish()?;
         Ok(Done {
@@ -193,6 +216,59 @@ impl Stage {
             seconds: start.elapsed().as_secs_f64(),
         })
     }
+}
+
+/// Refuses a path that is a file, or that has a file where a folder above it should be
+/// (creating the folder would fail with "File exists" or "Not a directory"), naming it.
+pub fn require_folder(dir: &Path) -> Result<(), StageError> {
+    for a in dir.ancestors().filter(|a| !a.as_os_str().is_empty()) {
+        match std::fs::metadata(a) {
+            Ok(m) if m.is_dir() => return Ok(()),
+            Ok(_) => {
+                return Err(StageError::NotAFolder {
+                    path: a.to_path_buf(),
+                    within: dir.to_path_buf(),
+                });
+            }
+            // Not there (yet): the folder above decides. Any other error is reported by
+            // whatever then touches the path.
+            Err(_) => continue,
+        }
+    }
+    Ok(())
+}
+
+/// Removes the files a record lists (those inside `dir`), and the folders they leave
+/// empty under `dir`.
+fn remove_outputs(dir: &Path, rec: &StageRecord) -> Result<(), StageError> {
+    let mut folders = std::collections::BTreeSet::new();
+    for rel in rec.outputs.keys() {
+        let rel_path = Path::new(rel);
+        // A hand-edited record names nothing outside the folder.
+        if !rel_path
+            .components()
+            .all(|c| matches!(c, std::path::Component::Normal(_)))
+        {
+            continue;
+        }
+        let path = dir.join(rel_path);
+        match std::fs::remove_file(&path) {
+            Ok(()) => {}
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
+            Err(e) => return Err(io_err(&path)(e).into()),
+        }
+        folders.extend(
+            path.ancestors()
+                .skip(1)
+                .take_while(|a| a.starts_with(dir) && *a != dir)
+                .map(Path::to_path_buf),
+        );
+    }
+    // Deepest first; a folder holding anything else stays (remove_dir refuses it).
+    for folder in folders.iter().rev() {
+        let _ = std::fs::remove_dir(folder);
+    }
+    Ok(())
 }
 
 /// Removes what killed runs left in `dir`: temp files `.<name>.*tmp` and staging folders
@@ -358,6 +434,83 @@ mod tests {
             .run(|_| Ok::<(), E>(()), |_| Err(E("failed".into())));
         assert_eq!(r.unwrap_err().0, "failed");
         assert!(!d.join(RECORD_FILE).exists());
+    }
+
+    /// A stage never writes into another stage's folder: refused before anything there
+    /// changes, naming the folder and the stage it belongs to.
+    #[test]
+    fn refuses_the_folder_of_another_stage() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path().join("train");
+        let mut calls = 0;
+        run_once(&d, 1, "x", &mut calls);
+        let before = std::fs::read(d.join(RECORD_FILE)).unwrap();
+        let listing = |d: &Path| {
+            let mut v: Vec<_> = std::fs::read_dir(d)
+                .unwrap()
+                .map(|e| e.unwrap().file_name())
+                .collect();
+            v.sort();
+            v
+        };
+        let files = listing(&d);
+        let e = Stage::new("score", &d, &1u32, BTreeMap::new()).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            format!(
+                "{} belongs to the demo stage (its stage.json says so): the score stage does \
+                 not write into another stage's folder; choose another folder",
+                d.display()
+            )
+        );
+        assert_eq!(std::fs::read(d.join(RECORD_FILE)).unwrap(), before);
+        assert_eq!(listing(&d), files);
+    }
+
+    /// A stage folder that is a file, or under one, is named as such (not "File exists").
+    #[test]
+    fn refuses_a_file_as_the_stage_folder() {
+        let dir = tempfile::tempdir().unwrap();
+        let f = dir.path().join("w");
+        std::fs::write(&f, b"a file").unwrap();
+        let e = Stage::new("demo", &f, &1u32, BTreeMap::new()).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            format!(
+                "{} is a file, not a folder: choose another folder",
+                f.display()
+            )
+        );
+        let below = f.join("ingest");
+        let e = Stage::new("demo", &below, &1u32, BTreeMap::new()).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            format!(
+                "{} is a file, not a folder (in {}): choose another folder",
+                f.display(),
+                below.display()
+            )
+        );
+        assert_eq!(std::fs::read(&f).unwrap(), b"a file");
+    }
+
+    /// A rerun removes the earlier run's outputs with its record: refused, it leaves
+    /// neither (a reader could otherwise take them for its own outputs).
+    #[test]
+    fn a_refused_rerun_leaves_no_earlier_outputs() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        let mut calls = 0;
+        run_once(d, 1, "x", &mut calls);
+        std::fs::write(d.join("notes.txt"), b"mine").unwrap();
+        let r = Stage::new("demo", d, &2u32, BTreeMap::new())
+            .unwrap()
+            .run(|_| Ok::<(), E>(()), |_| Err(E("refused".into())));
+        assert_eq!(r.unwrap_err().0, "refused");
+        assert!(!d.join(RECORD_FILE).exists());
+        assert!(!d.join("out.txt").exists());
+        assert!(!d.join("sub").exists());
+        assert_eq!(std::fs::read(d.join("notes.txt")).unwrap(), b"mine");
     }
 
     #[test]

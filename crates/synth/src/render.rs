@@ -109,16 +109,17 @@ fn eval(f: &[f64; 3], px: f64, py: f64) -> f64 {
 }
 
 pub(crate) fn check_camera(camera: &Camera) -> Result<Intr> {
-    if camera.model != CameraModel::Pinhole || camera.validate().is_err() {
-        return Err(SynthError::UnsupportedCamera(
-            camera.model.name().to_string(),
-        ));
-    }
+    // The size first: `Camera::validate` refuses a size of 0 too.
     if !(1..=16384).contains(&camera.width) || !(1..=16384).contains(&camera.height) {
         return Err(SynthError::InvalidCameraSize {
             width: camera.width,
             height: camera.height,
         });
+    }
+    if camera.model != CameraModel::Pinhole || camera.validate().is_err() {
+        return Err(SynthError::UnsupportedCamera(
+            camera.model.name().to_string(),
+        ));
     }
     let p = &camera.params;
     if !(p[0] > 0.0 && p[1] > 0.0) {

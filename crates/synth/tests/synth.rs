@@ -533,7 +533,13 @@ fn render_rejects_what_it_cannot_draw() {
         scene.render(&radial, &pose),
         Err(SynthError::UnsupportedCamera(_))
     ));
-    let empty = Camera::new(CameraModel::Pinhole, 0, 48, vec![50.0, 50.0, 32.0, 24.0]).unwrap();
+    // Built field by field: `Camera::new` refuses a size of 0 itself.
+    let empty = Camera {
+        model: CameraModel::Pinhole,
+        width: 0,
+        height: 48,
+        params: vec![50.0, 50.0, 32.0, 24.0],
+    };
     assert!(matches!(
         scene.render(&empty, &pose),
         Err(SynthError::InvalidCameraSize { .. })

@@ -15,6 +15,13 @@
 //! | `qw` `qx` `qy` `qz` `tx` `ty` `tz` | f64 | world-to-camera pose, Hamilton quaternion w-first |
 //! | `depth_path` | str, nullable | absolute path of the depth map aligned with the image |
 //! | `content_hash` | str | sha256 (hex) of the image file |
+//! | `depth_hash` | str, nullable | sha256 (hex) of the depth map file, null exactly when `depth_path` is |
+//!
+//! Readers check a file against its hash where they read it: the shard stage each image
+//! (crates/shards/src/shard_stage/source.rs), the refine stage each depth map
+//! (crates/labels/src/refine/inputs.rs). A table written before `depth_hash` existed
+//! reads with no depth hashes; the refine stage refuses its depth maps and the ingest
+//! stage writes the table again (crates/datasets/src/ingest_stage.rs).
 //!
 //! The [`IngestMeta`] (dataset, scene, pose and depth source, excluded frames) is stored
 //! as JSON in the parquet file's key-value metadata under [`META_KEY`], not in a sidecar:
@@ -33,6 +40,9 @@ pub const META_KEY: &str = "pl2map.frames.meta";
 /// Key of the table layout version; a reader refuses other versions.
 pub const VERSION_KEY: &str = "pl2map.frames.version";
 pub const TABLE_VERSION: &str = "1";
+/// The stage that writes the frames table (crates/datasets/src/ingest_stage.rs): a stage
+/// reads a frames table only with that stage's record (`stage::recorded_outputs`).
+pub const FRAMES_STAGE: &str = "ingest";
 
 #[derive(
     Clone,
@@ -86,6 +96,9 @@ pub struct Frame {
     pub pose: Pose,
     /// Absolute path of a depth map in this image's camera (16-bit, millimetres).
     pub depth_path: Option<PathBuf>,
+    /// sha256 (hex) of the depth map file; None without a depth map, or in a table
+    /// written before depth maps were hashed.
+    pub depth_hash: Option<String>,
     pub width: u32,
     pub height: u32,
     /// sha256 (hex) of the image file.
@@ -219,6 +232,12 @@ impl FramesTable {
                 .map(|x| x.content_hash.as_str())
                 .collect::<Vec<&str>>(),
         ));
+        columns.push(Column::new(
+            "depth_hash".into(),
+            f.iter()
+                .map(|x| x.depth_hash.as_deref())
+                .collect::<Vec<Option<&str>>>(),
+        ));
         DataFrame::new(n, columns).map_err(polars_err)
     }
 
@@ -286,6 +305,11 @@ fn frames_from_dataframe(df: &DataFrame, path: &Path) -> Result<Vec<Frame>, Tabl
     }
     let depths = c.opt_strs("depth_path")?;
     let hashes = c.strs("content_hash")?;
+    // Absent in tables written before depth maps were hashed: no hashes, not an error.
+    let depth_hashes = match df.column("depth_hash") {
+        Ok(_) => Some(c.opt_strs("depth_hash")?),
+        Err(_) => None,
+    };
 
     let row_err = |row: usize, column: &str, message: String| c.row_error(row, column, message);
     let mut frames = Vec::with_capacity(ids.len());
@@ -310,13 +334,22 @@ fn frames_from_dataframe(df: &DataFrame, path: &Path) -> Result<Vec<Frame>, Tabl
         })?;
         let model = CameraModel::from_name(&models[row])
             .map_err(|e| row_err(row, "camera_model", e.to_string()))?;
+        // `Camera::new` refuses a camera that cannot exist (focal length <= 0, size 0, a
+        // principal point far outside the image): a table of such frames came from a bad
+        // ingest configuration or another tool, and every stage after would use it.
         let camera = Camera::new(
             model,
             widths[row] as u64,
             heights[row] as u64,
             params[row].clone(),
         )
-        .map_err(|e| row_err(row, "camera_params", e.to_string()))?;
+        .map_err(|e| {
+            let column = match e {
+                geometry::GeometryError::InvalidSize { .. } => "width",
+                _ => "camera_params",
+            };
+            row_err(row, column, e.to_string())
+        })?;
         let p: Vec<f64> = pose_cols.iter().map(|col| col[row]).collect();
         let (q, t) = ([p[0], p[1], p[2], p[3]], [p[4], p[5], p[6]]);
         // Validated, but not renormalised: the stored unit quaternion comes back with
@@ -327,6 +360,21 @@ fn frames_from_dataframe(df: &DataFrame, path: &Path) -> Result<Vec<Frame>, Tabl
             UnitQuaternion::new_unchecked(Quaternion::new(q[0], q[1], q[2], q[3])),
             Vector3::from(t),
         );
+        let depth_hash = depth_hashes.as_ref().and_then(|h| h[row].clone());
+        if depth_hashes.is_some() && depth_hash.is_some() != depths[row].is_some() {
+            return Err(row_err(
+                row,
+                "depth_hash",
+                format!(
+                    "a depth hash {} a depth path: expected both or neither",
+                    if depth_hash.is_some() {
+                        "without"
+                    } else {
+                        "missing for"
+                    }
+                ),
+            ));
+        }
         frames.push(Frame {
             id: ids[row],
             name: names[row].clone(),
@@ -335,6 +383,7 @@ fn frames_from_dataframe(df: &DataFrame, path: &Path) -> Result<Vec<Frame>, Tabl
             camera,
             pose,
             depth_path: depths[row].as_ref().map(PathBuf::from),
+            depth_hash,
             width: widths[row],
             height: heights[row],
             content_hash: hashes[row].clone(),
@@ -368,6 +417,7 @@ mod tests {
                         Vector3::new(std::f64::consts::PI * x, -1e-300, 1.0 / 7.0),
                     ),
                     depth_path: (i % 2 == 0).then(|| PathBuf::from(format!("/d/{i}.png"))),
+                    depth_hash: (i % 2 == 0).then(|| format!("{:064x}", 100 + i)),
                     width: 640,
                     height: 480,
                     content_hash: format!("{i:064x}"),
@@ -431,6 +481,82 @@ mod tests {
             FramesTable::read_parquet(&p),
             Err(TableError::Polars { .. })
         ));
+    }
+
+    /// A table written before the `depth_hash` column existed still reads (no depth
+    /// hashes); a hash without its depth map, or a depth map without its hash in a
+    /// table that has the column, is refused naming the row.
+    #[test]
+    fn tables_without_depth_hashes_read_and_half_pairs_are_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let t = table();
+        let p = dir.path().join("old.parquet");
+        let mut df = t.to_dataframe(&p).unwrap();
+        df.drop_in_place("depth_hash").unwrap();
+        let meta = serde_json::to_string(&t.meta).unwrap();
+        write_parquet(
+            &p,
+            &mut df,
+            vec![
+                (VERSION_KEY.to_string(), TABLE_VERSION.to_string()),
+                (META_KEY.to_string(), meta),
+            ],
+        )
+        .unwrap();
+        let back = FramesTable::read_parquet(&p).unwrap();
+        assert!(back.frames.iter().all(|f| f.depth_hash.is_none()));
+        assert_eq!(back.frames[0].depth_path, t.frames[0].depth_path);
+
+        let mut bad = t.clone();
+        bad.frames[2].depth_hash = None;
+        let q = dir.path().join("bad.parquet");
+        bad.write_parquet(&q).unwrap();
+        let e = FramesTable::read_parquet(&q).unwrap_err().to_string();
+        assert!(
+            e.contains("row 2 (depth_hash)") && e.contains("missing for a depth path"),
+            "{e}"
+        );
+    }
+
+    /// A row whose camera cannot exist is refused naming the file, the row and what is
+    /// wrong (docs/errors.md); the cameras are set field by field, as another tool could
+    /// write them.
+    #[test]
+    fn refuses_rows_whose_camera_cannot_exist() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("frames.parquet");
+        type Edit = fn(&mut Frame);
+        let cases: [(Edit, &str); 4] = [
+            (
+                |f| f.camera.params[0] = -525.0,
+                "row 3 (camera_params): focal length f = -525 must be positive and finite",
+            ),
+            (
+                |f| f.camera.params[0] = 0.0,
+                "row 3 (camera_params): focal length f = 0 must be positive",
+            ),
+            (
+                |f| f.camera.params[1] = 1e12,
+                "row 3 (camera_params): principal point cx = 1000000000000",
+            ),
+            (
+                |f| {
+                    f.width = 0;
+                    f.camera.width = 0;
+                },
+                "row 3 (width): camera size 0x480 is invalid",
+            ),
+        ];
+        for (edit, expect) in cases {
+            let mut t = table();
+            edit(&mut t.frames[3]);
+            t.write_parquet(&p).unwrap();
+            let e = FramesTable::read_parquet(&p).unwrap_err().to_string();
+            assert!(
+                e.starts_with(&p.display().to_string()) && e.contains(expect),
+                "{e}"
+            );
+        }
     }
 
     #[test]

@@ -6,7 +6,8 @@
 //! pass as a valid frame. This module walks the file's own structure instead: every PNG
 //! chunk up to `IEND` (lengths and CRCs), and every JPEG marker segment and entropy-coded
 //! scan up to `EOI`. It reads no pixels; the ingest stage decodes each image fully as
-//! well (docs/errors.md lists both refusals).
+//! well (docs/errors.md lists both refusals). The bytes come from
+//! `fileio::image::read_image`, which reads the header first and bounds what it reads.
 
 /// The encodings the frames table accepts.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -28,30 +29,85 @@ impl Encoding {
     }
 }
 
+/// The image files of a folder ([`list`]).
+#[derive(Debug, Default, PartialEq)]
+pub struct Listing {
+    /// Every image file, sorted by path.
+    pub files: Vec<std::path::PathBuf>,
+    /// One line per link that was not followed because it leads to a folder listed
+    /// already (a link cycle such as `loop -> ..`, or a second path to one folder), for
+    /// the caller to warn with.
+    pub skipped: Vec<String>,
+}
+
 /// Every `.png`, `.jpg` and `.jpeg` file under `dir` (recursively, extension in any
 /// case), sorted by path: the image folders `pl2map localize`, `pl2map features` and the
-/// front-end bench read.
-pub fn list(dir: &std::path::Path) -> std::io::Result<Vec<std::path::PathBuf>> {
-    let mut out = Vec::new();
-    let mut stack = vec![dir.to_path_buf()];
-    while let Some(d) = stack.pop() {
-        for entry in std::fs::read_dir(&d)? {
-            let path = entry?.path();
-            if path.is_dir() {
-                stack.push(path);
-                continue;
+/// front-end bench read. Links are followed, but each folder is entered once: a link to
+/// a folder entered already is named in [`Listing::skipped`] instead, so a link cycle
+/// neither loops nor lists a file twice. Folders are walked in name order, so which of
+/// two paths to one folder is kept does not depend on the order the OS lists them in.
+pub fn list(dir: &std::path::Path) -> std::io::Result<Listing> {
+    let mut listing = Listing::default();
+    let mut entered = std::collections::HashSet::new();
+    entered.insert(folder_id(dir)?);
+    walk(dir, &mut entered, &mut listing)?;
+    listing.files.sort();
+    Ok(listing)
+}
+
+fn walk(
+    dir: &std::path::Path,
+    entered: &mut std::collections::HashSet<FolderId>,
+    listing: &mut Listing,
+) -> std::io::Result<()> {
+    let mut paths = std::fs::read_dir(dir)?
+        .map(|e| e.map(|e| e.path()))
+        .collect::<std::io::Result<Vec<_>>>()?;
+    paths.sort();
+    for path in paths {
+        if path.is_dir() {
+            if entered.insert(folder_id(&path)?) {
+                walk(&path, entered, listing)?;
+            } else {
+                let target = std::fs::canonicalize(&path).unwrap_or_else(|_| path.clone());
+                listing.skipped.push(format!(
+                    "{}: not entered: it leads to {}, a folder listed already (a link cycle, \
+                     or a second path to the same folder)",
+                    path.display(),
+                    target.display()
+                ));
             }
-            let ext = path
-                .extension()
-                .and_then(|e| e.to_str())
-                .map(str::to_ascii_lowercase);
-            if matches!(ext.as_deref(), Some("png" | "jpg" | "jpeg")) {
-                out.push(path);
-            }
+            continue;
+        }
+        let ext = path
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(str::to_ascii_lowercase);
+        if matches!(ext.as_deref(), Some("png" | "jpg" | "jpeg")) {
+            listing.files.push(path);
         }
     }
-    out.sort();
-    Ok(out)
+    Ok(())
+}
+
+/// A folder's identity whichever path leads to it: device and inode.
+#[cfg(unix)]
+type FolderId = (u64, u64);
+
+#[cfg(unix)]
+fn folder_id(dir: &std::path::Path) -> std::io::Result<FolderId> {
+    use std::os::unix::fs::MetadataExt;
+    let m = std::fs::metadata(dir)?;
+    Ok((m.dev(), m.ino()))
+}
+
+/// A folder's identity whichever path leads to it: its canonical path.
+#[cfg(not(unix))]
+type FolderId = std::path::PathBuf;
+
+#[cfg(not(unix))]
+fn folder_id(dir: &std::path::Path) -> std::io::Result<FolderId> {
+    std::fs::canonicalize(dir)
 }
 
 const PNG_SIGNATURE: &[u8] = &[0x89, b'P', b'N', b'G', b'\r', b'\n', 0x1A, b'\n'];
@@ -89,16 +145,16 @@ fn check_png(bytes: &[u8]) -> Result<(), String> {
             return Err(format!(
                 "truncated PNG: the {} chunk at byte {at} needs {} bytes, the file ends at \
                  byte {}",
-                String::from_utf8_lossy(kind),
+                fileio::image::printable(kind),
                 len + 12,
                 bytes.len()
             ));
         }
         let stored = u32::from_be_bytes(bytes[end - 4..end].try_into().expect("4 bytes"));
-        if crc32(&bytes[at + 4..end - 4]) != stored {
+        if fileio::image::crc32(&bytes[at + 4..end - 4]) != stored {
             return Err(format!(
                 "corrupt PNG: the {} chunk at byte {at} fails its CRC check",
-                String::from_utf8_lossy(kind)
+                fileio::image::printable(kind)
             ));
         }
         match kind {
@@ -184,32 +240,6 @@ fn check_jpeg(bytes: &[u8]) -> Result<(), String> {
     }
 }
 
-/// CRC-32 (ISO-HDLC, as PNG uses), bitwise; PNG chunks of a frame are a few hundred
-/// kilobytes at most, so a table buys nothing measurable next to decoding.
-fn crc32(data: &[u8]) -> u32 {
-    static TABLE: std::sync::OnceLock<[u32; 256]> = std::sync::OnceLock::new();
-    let table = TABLE.get_or_init(|| {
-        let mut t = [0u32; 256];
-        for (n, entry) in t.iter_mut().enumerate() {
-            let mut c = n as u32;
-            for _ in 0..8 {
-                c = if c & 1 != 0 {
-                    0xEDB8_8320 ^ (c >> 1)
-                } else {
-                    c >> 1
-                };
-            }
-            *entry = c;
-        }
-        t
-    });
-    let mut c = 0xFFFF_FFFFu32;
-    for &b in data {
-        c = table[((c ^ b as u32) & 0xFF) as usize] ^ (c >> 8);
-    }
-    c ^ 0xFFFF_FFFF
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -221,7 +251,7 @@ mod tests {
             let mut body = kind.to_vec();
             body.extend_from_slice(data);
             out.extend_from_slice(&body);
-            out.extend_from_slice(&crc32(&body).to_be_bytes());
+            out.extend_from_slice(&fileio::image::crc32(&body).to_be_bytes());
         }
         let mut png = PNG_SIGNATURE.to_vec();
         chunk(&mut png, b"IHDR", &[0, 0, 0, 2, 0, 0, 0, 1, 8, 0, 0, 0, 0]);
@@ -238,11 +268,6 @@ mod tests {
         chunk(&mut png, b"IDAT", &z);
         chunk(&mut png, b"IEND", &[]);
         png
-    }
-
-    #[test]
-    fn crc32_matches_the_standard_check_value() {
-        assert_eq!(crc32(b"123456789"), 0xCBF4_3926);
     }
 
     #[test]
@@ -278,5 +303,50 @@ mod tests {
                 .contains("before any scan")
         );
         assert!(check_complete(b"GIF89a").unwrap_err().contains("neither"));
+    }
+
+    #[test]
+    fn a_chunk_type_of_control_bytes_is_escaped_in_the_message() {
+        let mut png = tiny_png();
+        // The IDAT chunk's type (bytes 37..41) made NULs: its CRC no longer matches.
+        png[37..41].copy_from_slice(&[0, 0, 0, 0]);
+        let e = check_complete(&png).unwrap_err();
+        assert_eq!(
+            e,
+            "corrupt PNG: the \\x00\\x00\\x00\\x00 chunk at byte 33 fails its CRC check"
+        );
+        assert!(!e.contains('\0'));
+        let cut = check_complete(&png[..45]).unwrap_err();
+        assert!(cut.contains("the \\x00\\x00\\x00\\x00 chunk"), "{cut}");
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn a_link_cycle_is_not_followed_and_each_file_is_listed_once() {
+        let dir = tempfile::tempdir().unwrap();
+        let root = dir.path();
+        std::fs::create_dir_all(root.join("a/b")).unwrap();
+        for f in ["one.png", "a/two.JPG", "a/b/three.jpeg", "a/notes.txt"] {
+            std::fs::write(root.join(f), b"x").unwrap();
+        }
+        // A cycle back to the root, one to a parent, and a second path to `a/b`.
+        std::os::unix::fs::symlink("..", root.join("a/loop")).unwrap();
+        std::os::unix::fs::symlink("..", root.join("a/b/up")).unwrap();
+        std::os::unix::fs::symlink("a/b", root.join("z")).unwrap();
+        let listing = list(root).unwrap();
+        let rel: Vec<_> = listing
+            .files
+            .iter()
+            .map(|p| p.strip_prefix(root).unwrap().to_str().unwrap())
+            .collect();
+        assert_eq!(rel, ["a/b/three.jpeg", "a/two.JPG", "one.png"]);
+        assert_eq!(listing.skipped.len(), 3, "{:?}", listing.skipped);
+        for (line, link) in listing.skipped.iter().zip(["a/b/up", "a/loop", "z"]) {
+            assert!(
+                line.starts_with(&root.join(link).display().to_string())
+                    && line.contains("a folder listed already"),
+                "{line}"
+            );
+        }
     }
 }

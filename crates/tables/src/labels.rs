@@ -47,6 +47,12 @@ use std::path::{Path, PathBuf};
 pub const POINTS_FILE: &str = "points.parquet";
 pub const LINES_FILE: &str = "lines.parquet";
 pub const POSES_FILE: &str = "poses.parquet";
+/// The three tables, as a reader takes them.
+pub const LABEL_FILES: [&str; 3] = [POINTS_FILE, LINES_FILE, POSES_FILE];
+/// The stages that write label tables (crates/labels/src/import_stage.rs,
+/// crates/labels/src/refine_stage.rs): a stage reads label tables only with the record
+/// of one of them (`stage::recorded_outputs`).
+pub const LABEL_STAGES: [&str; 2] = ["import", "refine"];
 
 pub const VERSION_KEY: &str = "pl2map.labels.version";
 pub const TABLE_VERSION: &str = "1";

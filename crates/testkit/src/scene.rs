@@ -253,6 +253,7 @@ impl Scene {
                     split,
                     camera: cam.clone(),
                     pose,
+                    depth_hash: Some(stage::sha256_file(&depth_path).unwrap()),
                     depth_path: Some(depth_path),
                     width: WIDTH,
                     height: HEIGHT,
@@ -440,8 +441,31 @@ impl Scene {
         scene
     }
 
+    /// Writes the frames table and, as the ingest stage does, its record: the label and
+    /// shard stages read a frames table only with it (`stage::recorded_outputs`).
     pub fn write_frames(&self) {
         self.table.write_parquet(&self.frames_path).unwrap();
+        let dir = self.frames_path.parent().unwrap();
+        let name = self.frames_path.file_name().unwrap().to_str().unwrap();
+        let mut record = stage::StageRecord::new(
+            tables::frames::FRAMES_STAGE,
+            String::new(),
+            Default::default(),
+        );
+        record.add_output(dir, name).unwrap();
+        record.save(dir).unwrap();
+    }
+
+    /// After a test changed depth maps on disk: their hashes in the frames table, as a
+    /// new ingest would write them (the table, and so its hash, changes with them).
+    pub fn rehash_depth(&mut self) {
+        for f in &mut self.table.frames {
+            f.depth_hash = f
+                .depth_path
+                .as_ref()
+                .map(|p| stage::sha256_file(p).unwrap());
+        }
+        self.write_frames();
     }
 
     /// Writes the model as is (no validation: tests write broken models on purpose).

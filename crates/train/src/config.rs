@@ -135,6 +135,19 @@ pub struct TrainConfig {
     pub workers: usize,
 }
 
+/// `over`'s keys written into `base`: tables merged key by key at every depth, any other
+/// value (arrays included) replaced whole.
+fn merge_over(base: &mut toml::Table, over: toml::Table) {
+    for (key, value) in over {
+        match (base.get_mut(&key), value) {
+            (Some(toml::Value::Table(b)), toml::Value::Table(o)) => merge_over(b, o),
+            (_, v) => {
+                base.insert(key, v);
+            }
+        }
+    }
+}
+
 fn is_zero(v: &usize) -> bool {
     *v == 0
 }
@@ -191,17 +204,45 @@ impl Default for TrainConfig {
 }
 
 impl TrainConfig {
+    /// A training configuration file: the bare form (`iterations = ...`, `[model]` ...)
+    /// or a file holding only a pipeline's `[train]` section as it is (`[train]`,
+    /// `[train.model]` ...). Keys left out take their defaults at any depth (a `[model]`
+    /// table that names only `head_hidden` keeps the default network otherwise); an
+    /// unknown key is refused. A whole pipeline file is refused, saying how to run it.
     pub fn from_toml_file(path: &Path) -> Result<Self, TrainError> {
-        let text = std::fs::read_to_string(path).map_err(|e| TrainError::ConfigFile {
+        let file_err = |reason: String| TrainError::ConfigFile {
             path: path.to_path_buf(),
-            reason: e.to_string(),
-        })?;
-        let cfg: TrainConfig = toml::from_str(&text).map_err(|e| TrainError::ConfigFile {
-            path: path.to_path_buf(),
-            reason: e.to_string(),
-        })?;
+            reason,
+        };
+        let text = std::fs::read_to_string(path).map_err(|e| file_err(e.to_string()))?;
+        let cfg = Self::from_toml_str(&text).map_err(file_err)?;
         cfg.validate()?;
         Ok(cfg)
+    }
+
+    /// [`TrainConfig::from_toml_file`] of a file's text; the error is the reason.
+    pub fn from_toml_str(text: &str) -> Result<Self, String> {
+        let mut table: toml::Table = toml::from_str(text).map_err(|e| e.to_string())?;
+        if let Some(toml::Value::Table(section)) = table.get("train") {
+            let others: Vec<&String> = table.keys().filter(|k| *k != "train").collect();
+            if !others.is_empty() {
+                return Err(format!(
+                    "holds a [train] section beside {}: a pipeline file runs with `pl2map run                      FILE` (its [features] section also sets the network's descriptor size);                      give `pl2map train --config` the [train] section alone, or its keys                      without the section header",
+                    others
+                        .iter()
+                        .map(|k| format!("`{k}`"))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ));
+            }
+            table = section.clone();
+        }
+        let mut merged = toml::Table::try_from(TrainConfig::default())
+            .map_err(|e| format!("the default configuration as TOML: {e}"))?;
+        merge_over(&mut merged, table);
+        toml::Value::Table(merged)
+            .try_into()
+            .map_err(|e: toml::de::Error| e.to_string())
     }
 
     pub fn to_toml(&self) -> String {
@@ -417,6 +458,36 @@ mod tests {
                 "{e}"
             );
         }
+    }
+
+    /// `pl2map train --config` takes a pipeline's `[train]` section as it is or the bare
+    /// form, the same configuration either way; keys left out of a nested table keep
+    /// their defaults; a whole pipeline file and an unknown key are refused.
+    #[test]
+    fn config_files_in_both_forms_with_defaults_at_any_depth() {
+        let bare = "iterations = 40\nseed = 3\n[model]\nhead_hidden = [64]\n";
+        let section = "[train]\niterations = 40\nseed = 3\n[train.model]\nhead_hidden = [64]\n";
+        let a = TrainConfig::from_toml_str(bare).unwrap();
+        assert_eq!(a, TrainConfig::from_toml_str(section).unwrap());
+        let mut expected = TrainConfig {
+            iterations: 40,
+            seed: 3,
+            ..TrainConfig::default()
+        };
+        expected.model.head_hidden = vec![64];
+        assert_eq!(a, expected);
+        a.validate().unwrap();
+        let pipeline = "work = \"w\"\n[synth]\ntiny = true\n[train]\niterations = 4\n";
+        let e = TrainConfig::from_toml_str(pipeline).unwrap_err();
+        assert!(e.contains("pl2map run") && e.contains("`synth`"), "{e}");
+        let e = TrainConfig::from_toml_str("[model]\nheadz = 3\n").unwrap_err();
+        assert!(e.contains("headz"), "{e}");
+        // The file's own name and what is wrong.
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("t.toml");
+        std::fs::write(&path, "iterations = \"many\"\n").unwrap();
+        let e = TrainConfig::from_toml_file(&path).unwrap_err().to_string();
+        assert!(e.contains("t.toml") && e.contains("iterations"), "{e}");
     }
 
     #[test]

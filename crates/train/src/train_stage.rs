@@ -23,7 +23,7 @@ use crate::metrics::METRICS_FILE;
 use crate::plot::PLOT_FILE;
 use crate::trainer::{CONFIG_FILE, RunOptions, TrainSummary, train};
 use serde::{Deserialize, Serialize};
-use shards::{Manifest, Split};
+use shards::Split;
 use stage::{Done, RecordCheck, Stage, StageRecord};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -84,11 +84,8 @@ pub fn split_shards(
     shard_dir: &Path,
     split: Split,
 ) -> Result<(Vec<PathBuf>, BTreeMap<String, String>), TrainError> {
-    let path = shard_dir.join(shards::MANIFEST_FILE);
-    let manifest = Manifest::load(&path).map_err(|e| TrainError::ConfigFile {
-        path: path.clone(),
-        reason: e.to_string(),
-    })?;
+    // The one manifest check of every reader (crates/shards/src/shard_stage/checked.rs).
+    let manifest = shards::checked_manifest(shard_dir)?;
     let list = shards::shards_of_split(&manifest, split);
     let paths = list.iter().map(|s| shard_dir.join(&s.file)).collect();
     let inputs = list
@@ -119,6 +116,13 @@ pub fn run(
     // The whole configuration (a CUDA device in a CPU build among it) before anything
     // is read or written.
     config.validate()?;
+    if options.resume {
+        // Refused before the folder's record is touched: a resume under another
+        // configuration must not cost the finished run its record.
+        let ckpt = dir.join(CHECKPOINT_FILE);
+        let ck = crate::checkpoint::CheckpointFile::read(&ckpt)?;
+        crate::trainer::resumed_config(&ck.header.config, config.clone(), &ckpt)?;
+    }
     let (paths, shard_inputs) = split_shards(shard_dir, Split::Train)?;
     let model = dir.join(MODEL_FILE);
     let output = |summary| TrainOutput {
@@ -141,6 +145,9 @@ pub fn run(
     let mut inputs = shard_inputs;
     let init_bytes = match &options.init {
         Some(p) => {
+            // Checked before anything is written, so that an error names the file the
+            // user gave, not the copy the stage keeps.
+            crate::trainer::init_checkpoint(p, &config)?;
             let bytes = std::fs::read(p).map_err(io_err(p))?;
             inputs.insert("init".into(), stage::sha256_bytes(&bytes));
             Some(bytes)
@@ -195,7 +202,17 @@ pub fn run(
         progress: options.progress,
         stop_after: None,
     };
-    let summary = train(config.clone(), &paths, &run_options)?;
+    let summary = match train(config.clone(), &paths, &run_options) {
+        Ok(s) => s,
+        Err(e) => {
+            // The copy of the starting model belongs to this run only: a failed run
+            // leaves no copy a later run could take for its own.
+            if run_options.init.is_some() {
+                remove_if_exists(&dir.join(INIT_FILE))?;
+            }
+            return Err(e);
+        }
+    };
     if summary.model.is_none() {
         return Err(TrainError::Config(format!(
             "the run in {} wrote no model",

@@ -291,9 +291,12 @@ struct Start<B: AutodiffBackend<InnerBackend: Pl2MapBackend> + Pl2MapBackend> {
     centre: [f64; 3],
 }
 
-/// `--resume`: the checkpoint's configuration, weights, optimiser and iteration. Where
-/// and with how many workers this process runs is the caller's choice, not the
-/// checkpoint's: a run started on a GPU may finish on the CPU.
+/// `--resume`: the checkpoint's weights, optimiser and iteration, continued under the
+/// requested configuration. The requested configuration may change what does not change
+/// the run's results so far (`iterations`: the run continues to the new count, and the
+/// learning-rate schedule follows it; where and how fast it runs: `device`, `workers`,
+/// `prefetch`, the caches); anything else that differs from the checkpoint's is refused,
+/// naming each key, so a run never trains with one configuration and records another.
 fn resumed_state<B: AutodiffBackend<InnerBackend: Pl2MapBackend> + Pl2MapBackend>(
     config: TrainConfig,
     ckpt_path: &Path,
@@ -301,12 +304,11 @@ fn resumed_state<B: AutodiffBackend<InnerBackend: Pl2MapBackend> + Pl2MapBackend
     device: &B::Device,
 ) -> Result<Start<B>, TrainError> {
     let ck = CheckpointFile::read(ckpt_path)?;
-    let mut cfg = ck.header.config.clone();
+    let mut requested = config;
     if let Some(n) = options.iterations {
-        cfg.iterations = n;
+        requested.iterations = n;
     }
-    cfg.device = config.device;
-    cfg.workers = config.workers;
+    let cfg = resumed_config(&ck.header.config, requested, ckpt_path)?;
     let model = ck.model::<B>(device)?;
     let optimizer = ck
         .optimizer::<B>(device)?
@@ -321,6 +323,77 @@ fn resumed_state<B: AutodiffBackend<InnerBackend: Pl2MapBackend> + Pl2MapBackend
         iteration: ck.header.iteration,
         centre: ck.header.scene_centre,
     })
+}
+
+/// The configuration a resumed run continues with: the checkpoint's, with the settings a
+/// resume may change taken from `requested`; an error naming every other key in which
+/// the two differ.
+pub fn resumed_config(
+    checkpoint: &TrainConfig,
+    requested: TrainConfig,
+    ckpt_path: &Path,
+) -> Result<TrainConfig, TrainError> {
+    let mut comparable = requested.clone();
+    // The trainer fills in the hash of the SuperPoint weights it was built with; a
+    // request names the file only (the weights' own check happens when they load).
+    if comparable.front_end.superpoint.weights_sha256.is_none() {
+        comparable.front_end.superpoint.weights_sha256 =
+            checkpoint.front_end.superpoint.weights_sha256.clone();
+    }
+    let effective = TrainConfig {
+        iterations: requested.iterations,
+        device: requested.device,
+        workers: requested.workers,
+        prefetch: requested.prefetch,
+        descriptor_cache_mib: requested.descriptor_cache_mib,
+        chunk_cache_mib: requested.chunk_cache_mib,
+        ..checkpoint.clone()
+    };
+    let differing = differing_keys(&effective, &comparable);
+    if !differing.is_empty() {
+        return Err(TrainError::Checkpoint {
+            path: ckpt_path.to_path_buf(),
+            reason: format!(
+                "--resume continues this checkpoint's run, whose configuration differs from                  the one asked for in: {}. Resume with the checkpoint's settings (only                  `iterations` and speed settings may change), or train into another folder",
+                differing.join("; ")
+            ),
+        });
+    }
+    if effective.iterations != checkpoint.iterations {
+        tracing::info!(
+            "resuming to {} iterations (the checkpoint's run was set to {}); the learning              rate schedule follows the new count",
+            effective.iterations,
+            checkpoint.iterations
+        );
+    }
+    Ok(effective)
+}
+
+/// The top-level keys in which two configurations differ, each as
+/// `key (checkpoint X, asked Y)`.
+fn differing_keys(checkpoint: &TrainConfig, asked: &TrainConfig) -> Vec<String> {
+    let as_map = |c: &TrainConfig| match toml::Value::try_from(c) {
+        Ok(toml::Value::Table(t)) => t,
+        _ => toml::Table::new(),
+    };
+    let (a, b) = (as_map(checkpoint), as_map(asked));
+    let mut keys: Vec<&String> = a.keys().chain(b.keys()).collect();
+    keys.sort();
+    keys.dedup();
+    let show = |v: Option<&toml::Value>| match v {
+        Some(v) => v.to_string(),
+        None => "default".into(),
+    };
+    keys.into_iter()
+        .filter(|k| a.get(*k) != b.get(*k))
+        .map(|k| {
+            format!(
+                "{k} (checkpoint {}, asked {})",
+                show(a.get(k)),
+                show(b.get(k))
+            )
+        })
+        .collect()
 }
 
 /// A new run: fresh weights from the seed (centred on the training labels), or the
@@ -346,16 +419,7 @@ fn fresh_state<B: AutodiffBackend<InnerBackend: Pl2MapBackend> + Pl2MapBackend>(
     cfg.validate()?;
     let (state, centre) = match &options.init {
         Some(path) => {
-            let ck = CheckpointFile::read(path)?;
-            if ck.header.config.model != cfg.model {
-                return Err(TrainError::Checkpoint {
-                    path: path.clone(),
-                    reason: format!(
-                        "its network ({:?}) is not the configured one ({:?})",
-                        ck.header.config.model, cfg.model
-                    ),
-                });
-            }
+            let ck = init_checkpoint(path, &cfg)?;
             (
                 TrainState::new(ck.model::<B>(device)?, cfg.loss.clone())?,
                 ck.header.scene_centre,
@@ -372,6 +436,22 @@ fn fresh_state<B: AutodiffBackend<InnerBackend: Pl2MapBackend> + Pl2MapBackend>(
         iteration: 0,
         centre,
     })
+}
+
+/// The starting model of a warm start (`--init`): a pl2map checkpoint of the configured
+/// network, or an error naming `path`.
+pub fn init_checkpoint(path: &Path, config: &TrainConfig) -> Result<CheckpointFile, TrainError> {
+    let ck = CheckpointFile::read(path)?;
+    if ck.header.config.model != config.model {
+        return Err(TrainError::Checkpoint {
+            path: path.to_path_buf(),
+            reason: format!(
+                "its network ({:?}) is not the configured one ({:?})",
+                ck.header.config.model, config.model
+            ),
+        });
+    }
+    Ok(ck)
 }
 
 /// The stream of training samples from iteration `start` on: frames from the shards,
@@ -541,6 +621,46 @@ mod tests {
         resume_matches_with(dir.path(), 3, cfg);
     }
 
+    /// `--resume` of a finished run with more iterations continues to the new count (and
+    /// says so in the summary's configuration); a resume asking another learning rate is
+    /// refused naming it, before anything is written.
+    #[test]
+    fn resume_continues_to_a_new_count_and_refuses_other_settings() {
+        let dir = tempfile::tempdir().unwrap();
+        let shards = write_synthetic_shards(dir.path(), 2, 4, 0.0);
+        let cfg = tiny_config();
+        let out = dir.path().join("run");
+        train(cfg.clone(), &shards, &opts(&out)).unwrap();
+        let nine = model_parameter_bytes(&out.join(MODEL_FILE)).unwrap();
+        let resume = RunOptions {
+            resume: true,
+            ..opts(&out)
+        };
+        let faster = TrainConfig {
+            learning_rate: 1e-2,
+            iterations: 12,
+            ..cfg.clone()
+        };
+        let e = train(faster, &shards, &resume).unwrap_err().to_string();
+        assert!(
+            e.contains("learning_rate (checkpoint 0.001, asked 0.01)"),
+            "{e}"
+        );
+        assert_eq!(model_parameter_bytes(&out.join(MODEL_FILE)).unwrap(), nine);
+        let longer = TrainConfig {
+            iterations: 12,
+            workers: 2,
+            ..cfg.clone()
+        };
+        let s = train(longer, &shards, &resume).unwrap();
+        assert_eq!((s.resumed_from, s.iterations_done), (Some(9), 12));
+        assert_eq!(s.config.iterations, 12);
+        assert!(s.finished);
+        assert_ne!(model_parameter_bytes(&out.join(MODEL_FILE)).unwrap(), nine);
+        let header = CheckpointFile::read(&out.join(MODEL_FILE)).unwrap().header;
+        assert_eq!((header.iteration, header.config.iterations), (12, 12));
+    }
+
     fn resume_matches(batch_frames: usize) {
         let dir = tempfile::tempdir().unwrap();
         resume_matches_with(dir.path(), batch_frames, tiny_config());
@@ -661,8 +781,31 @@ mod tests {
         );
         // Without --resume the folder is refused.
         assert!(train(cfg.clone(), &shards, &opts(&b)).is_err());
+        // A resume under another configuration is refused, naming what differs, and
+        // leaves the folder as it was.
+        let ckpt_before = std::fs::read(b.join(CHECKPOINT_FILE)).unwrap();
+        let other = TrainConfig {
+            batch_frames,
+            ..TrainConfig::default()
+        };
+        let e = train(
+            other,
+            &shards,
+            &RunOptions {
+                resume: true,
+                ..opts(&b)
+            },
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(
+            e.contains("model (checkpoint") && e.contains("--resume"),
+            "{e}"
+        );
+        assert_eq!(std::fs::read(b.join(CHECKPOINT_FILE)).unwrap(), ckpt_before);
+        assert!(!b.join(MODEL_FILE).exists());
         let resumed = train(
-            TrainConfig::default(), // ignored: the checkpoint's configuration is used
+            cfg.clone(),
             &shards,
             &RunOptions {
                 resume: true,

@@ -79,6 +79,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     // 7-Scenes keeps its depth maps (`*.depth.png`) next to the colour images.
     let mut paths: Vec<PathBuf> = tables::image_file::list(&dir)
         .with_context(|| format!("listing {}", dir.display()))?
+        .files
         .into_iter()
         .filter(|p| !p.to_string_lossy().contains(".depth."))
         .collect();

@@ -40,7 +40,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             }),
         ),
         (None, Some(spec), Some(images)) => (
-            localize::folder_queries(images, &pose::io::parse_camera(spec)?)?,
+            localize::folder_queries(images, &pose::io::parse_camera(spec)?)?.0,
             images.clone(),
         ),
         _ => bail!("give --queries LIST or --camera SPEC with --images DIR"),

@@ -34,10 +34,14 @@ pub struct Args {
 /// (name, path) of every image.
 fn image_list(images: &Path) -> anyhow::Result<Vec<(String, PathBuf)>> {
     if images.is_dir() {
-        let paths = tables::image_file::list(images)
+        let listing = tables::image_file::list(images)
             .with_context(|| format!("listing {}", images.display()))?;
+        for line in &listing.skipped {
+            tracing::warn!("{line}");
+        }
         // 7-Scenes keeps its depth maps (`*.depth.png`) next to the colour images.
-        return paths
+        return listing
+            .files
             .into_iter()
             .filter(|p| !p.to_string_lossy().contains(".depth."))
             .map(|p| {
@@ -117,9 +121,16 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .filter(|p| !p.as_os_str().is_empty())
         .unwrap_or(Path::new("."));
     std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-    let tmp = tempfile::Builder::new()
-        .prefix(".features-")
-        .suffix(".h5.tmp")
+    let mut builder = tempfile::Builder::new();
+    builder.prefix(".features-").suffix(".h5.tmp");
+    // tempfile creates 0600 files; the feature file is an ordinary output (0666 minus
+    // umask), as stage::AtomicFile makes them (crates/stage/src/atomic.rs).
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        builder.permissions(std::fs::Permissions::from_mode(0o666));
+    }
+    let tmp = builder
         .tempfile_in(dir)
         .with_context(|| format!("creating a temporary file in {}", dir.display()))?;
     // Images that cannot be read are left out and named; the others are written and
@@ -184,6 +195,15 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
         file.flush()?;
     }
+    if unreadable.len() == images.len() {
+        // Nothing to write: no file under the final name (the temp file is removed).
+        bail!(
+            "none of the {} images could be read; {} is not written:\n{}",
+            images.len(),
+            args.out.display(),
+            unreadable.join("\n")
+        );
+    }
     tmp.persist(&args.out)
         .with_context(|| format!("writing {}", args.out.display()))?;
     crate::outln!(
@@ -204,10 +224,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// An image file as grey, after the structural check ingest makes (a JPEG or PNG cut
+/// An image file as grey, read within bounds (no device or FIFO, the header and the
+/// pixel limit first) and after the structural check ingest makes (a JPEG or PNG cut
 /// short is refused with the byte offset, not decoded with its missing part filled in).
 fn read_gray(path: &Path) -> Result<image::GrayImage, String> {
-    let bytes = std::fs::read(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    let bytes = features::image_file::read_image(path).map_err(|e| e.to_string())?;
     tables::image_file::check_complete(&bytes).map_err(|r| format!("{}: {r}", path.display()))?;
     features::decode_gray(&bytes).map_err(|e| format!("{}: {e}", path.display()))
 }

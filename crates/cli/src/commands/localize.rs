@@ -61,7 +61,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             let camera =
                 pose::io::parse_camera(spec).with_context(|| format!("--camera {spec:?}"))?;
             let images = args.images.clone().expect("clap requires --images");
-            (localize::folder_queries(&images, &camera)?, images)
+            let (queries, skipped) = localize::folder_queries(&images, &camera)?;
+            for line in &skipped {
+                tracing::warn!("{line}");
+            }
+            (queries, images)
         }
         (None, None) => bail!("give --queries LIST or --camera SPEC with --images DIR"),
     };

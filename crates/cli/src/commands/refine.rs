@@ -11,10 +11,11 @@ use std::path::PathBuf;
 
 #[derive(clap::Args, Debug)]
 pub struct Args {
-    /// The frames table (with depth maps).
+    /// The frames table (with depth maps), with the ingest stage's stage.json beside it.
     #[arg(long)]
     pub frames: PathBuf,
-    /// Label folder of the import stage.
+    /// Label folder of the import stage (its tables are read only as its stage.json
+    /// records them).
     #[arg(long)]
     pub labels: PathBuf,
     /// Stage folder to write.

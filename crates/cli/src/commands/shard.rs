@@ -10,10 +10,11 @@ use std::path::PathBuf;
 
 #[derive(clap::Args, Debug)]
 pub struct Args {
-    /// The frames table.
+    /// The frames table, with the ingest stage's stage.json beside it.
     #[arg(long)]
     pub frames: PathBuf,
-    /// Label folder (import or refine stage).
+    /// Label folder (import or refine stage; its tables are read only as its
+    /// stage.json records them).
     #[arg(long)]
     pub labels: PathBuf,
     /// Stage folder to write.

@@ -23,7 +23,8 @@ pub struct Args {
     #[arg(long)]
     pub config: Option<PathBuf>,
     /// Continue the checkpoint in OUT (the folder's own interrupted run is resumed
-    /// without this flag).
+    /// without this flag) with its configuration; `--iterations N` continues it to N.
+    /// Other settings that differ from the checkpoint's are refused, naming them.
     #[arg(long)]
     pub resume: bool,
     /// Start from the weights of this checkpoint (same network); fresh optimiser.
@@ -34,9 +35,20 @@ pub struct Args {
 }
 
 pub fn run(args: Args, matches: &clap::ArgMatches, quiet: bool) -> anyhow::Result<()> {
-    let base = match &args.config {
-        Some(p) => TrainConfig::from_toml_file(p)?,
-        None => TrainConfig::default(),
+    let base = match (&args.config, args.resume) {
+        (Some(p), _) => TrainConfig::from_toml_file(p)?,
+        // `--resume` alone continues the checkpoint's own run: its configuration is the
+        // base, and a flag (`--iterations 150`) changes only its key. The trainer refuses
+        // a resume whose configuration differs in anything but the iteration count and
+        // speed settings (crates/train/src/trainer.rs, `resumed_config`).
+        (None, true) => {
+            let ckpt = args.out.join(train::checkpoint::CHECKPOINT_FILE);
+            train::checkpoint::CheckpointFile::read(&ckpt)
+                .with_context(|| "--resume needs the folder's checkpoint".to_string())?
+                .header
+                .config
+        }
+        (None, false) => TrainConfig::default(),
     };
     let config = override_given(&base, &args.settings, matches)?;
     let options = TrainStageOptions {

@@ -476,3 +476,65 @@ pub fn parse_frames(path: &Path, text: &str) -> crate::Result<Vec<Frame>> {
     }
     Ok(out)
 }
+
+/// The number of points the header of a points3D.txt announces (COLMAP writes
+/// `# Number of points: N, mean track length: M`), and its line. (M is the images'
+/// observations per point, not a count of the file's track elements: it cannot tell a
+/// cut track from a model that was inconsistent when written.)
+fn points3d_header(text: &str) -> Option<(usize, u64)> {
+    let mut lines = Lines::new(text);
+    while let Some((n, line)) = lines.next_raw() {
+        let t = line.trim();
+        if !t.is_empty() && !t.starts_with('#') {
+            return None;
+        }
+        if let Some(rest) = t.strip_prefix("# Number of points:") {
+            let count = rest.split(',').next()?.trim().parse().ok()?;
+            return Some((n, count));
+        }
+    }
+    None
+}
+
+/// Whether `text`, the points3D.txt that gave `points`, shows that it was cut short:
+/// it ends without the line end COLMAP writes after every point (a cut inside a line,
+/// at a token boundary or not), or it holds fewer points than its header says (a cut
+/// at a line end). Then the place (the last point's line) and what shows it. Only asked
+/// when the model's check fails: a file a tool wrote without the last line end, or with
+/// a header it did not update, is read as it is while the model is consistent.
+pub(crate) fn points3d_cut_short(text: &str, points: &[Point3D]) -> Option<(Location, String)> {
+    let mut lines = Lines::new(text);
+    let mut last = None;
+    while let Some((n, line)) = lines.next_data() {
+        last = Some((n, line));
+    }
+    let (line_no, line) = last?;
+    let record = points.last().map(|p| RecordRef {
+        table: Table::Points3D,
+        index: points.len() - 1,
+        id: Some(p.id),
+    });
+    let at = |column| Location::Line {
+        line: line_no,
+        column,
+        record,
+    };
+    if !text.ends_with('\n') {
+        let column = line.trim_end().len() + 1;
+        return Some((
+            at(column),
+            "it ends inside this line, without the line end COLMAP writes after every point".into(),
+        ));
+    }
+    let (header_line, announced) = points3d_header(text)?;
+    (announced > points.len() as u64).then(|| {
+        (
+            at(1),
+            format!(
+                "its header (line {header_line}) says {announced} points, but it holds {} \
+                 (this line is the last)",
+                points.len()
+            ),
+        )
+    })
+}

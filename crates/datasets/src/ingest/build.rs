@@ -18,6 +18,9 @@ pub(super) struct InputHashes {
     pub(super) inputs: BTreeMap<String, String>,
     /// Content hash of each planned frame's image, in plan order.
     pub(super) images: Vec<String>,
+    /// Content hash of each planned frame's depth input (raw or rendered), in plan
+    /// order: a rendered map is the table's depth map, so this is its depth hash.
+    pub(super) depths: Vec<Option<String>>,
 }
 
 /// Hashes every file the plan reads (in parallel), once.
@@ -43,10 +46,14 @@ pub(super) fn hash_inputs(plan: &Plan) -> Result<InputHashes> {
         .collect::<std::result::Result<_, _>>()?;
     bar.finish_and_clear();
     let mut images = vec![String::new(); plan.frames.len()];
+    let mut depths = vec![None; plan.frames.len()];
     let mut by_category: BTreeMap<&str, Vec<(&str, &str)>> = BTreeMap::new();
     for ((frame, category, name, _), hash) in files.iter().zip(&hashes) {
         if *category == "images" && *frame != usize::MAX {
             images[*frame] = hash.clone();
+        }
+        if *category == "depth" && *frame != usize::MAX {
+            depths[*frame] = Some(hash.clone());
         }
         by_category
             .entry(category)
@@ -67,7 +74,11 @@ pub(super) fn hash_inputs(plan: &Plan) -> Result<InputHashes> {
             (category.to_string(), stage::sha256_bytes(text.as_bytes()))
         })
         .collect();
-    Ok(InputHashes { inputs, images })
+    Ok(InputHashes {
+        inputs,
+        images,
+        depths,
+    })
 }
 
 /// Reads every frame's pose, image size and depth (in parallel, ordered) into the table.
@@ -86,9 +97,10 @@ pub(super) fn build(
         .frames
         .par_iter()
         .zip(hashes.images.par_iter())
+        .zip(hashes.depths.par_iter())
         .enumerate()
-        .map(|(id, (pf, hash))| {
-            let r = build_frame(plan, pf, id as u32, hash, depth_out);
+        .map(|(id, ((pf, hash), depth_hash))| {
+            let r = build_frame(plan, pf, id as u32, hash, depth_hash.as_deref(), depth_out);
             bar.inc(1);
             r
         })
@@ -122,6 +134,7 @@ fn build_frame(
     pf: &PlannedFrame,
     id: u32,
     hash: &str,
+    depth_input_hash: Option<&str>,
     depth_out: Option<&Path>,
 ) -> Result<Frame> {
     let (w, h) = {
@@ -172,7 +185,10 @@ fn build_frame(
         }
         PoseSource::Given(p) => *p,
     };
-    let depth_path = match (&plan.depth, &pf.depth_in, depth_out) {
+    // Each depth map with its content hash, which the refine stage checks it against
+    // (crates/labels/src/refine/inputs.rs): the registered map as written, a rendered
+    // map as hashed with the inputs.
+    let depth = match (&plan.depth, &pf.depth_in, depth_out) {
         (DepthOption::Raw, Some(input), Some(out)) => {
             let raw = depth::read_depth_png(input)?;
             let (Some(dcam), Some(ext)) = (&plan.depth_camera, &plan.rgb_from_depth) else {
@@ -193,15 +209,23 @@ fn build_frame(
             }
             let reg = depth::register_depth(&raw, dcam, &ext.pose, &camera);
             let dest = out.join(format!("{}.depth.png", pf.stem));
-            depth::write_depth_png(&dest, &reg)?;
-            Some(dest)
+            let sha256 = depth::write_depth_png(&dest, &reg)?;
+            Some((dest, sha256))
         }
         (DepthOption::Rendered(_), Some(input), _) => {
             depth::check_depth_size(input, &pf.name, w, h)?;
-            Some(input.clone())
+            let sha256 = depth_input_hash.ok_or_else(|| {
+                IngestError::Config(format!(
+                    "the depth map {} of {} was not hashed with the inputs",
+                    input.display(),
+                    pf.name
+                ))
+            })?;
+            Some((input.clone(), sha256.to_string()))
         }
         _ => None,
     };
+    let (depth_path, depth_hash) = depth.unzip();
     Ok(Frame {
         id,
         name: pf.name.clone(),
@@ -210,6 +234,7 @@ fn build_frame(
         camera,
         pose,
         depth_path,
+        depth_hash,
         width: w,
         height: h,
         content_hash: hash.to_string(),

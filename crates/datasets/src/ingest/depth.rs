@@ -73,8 +73,9 @@ pub fn read_depth_png(path: &Path) -> Result<DepthImage> {
     }
 }
 
-/// Writes a 16-bit PNG atomically (fixed encoder settings: same pixels, same bytes).
-pub fn write_depth_png(path: &Path, depth: &DepthImage) -> Result<()> {
+/// Writes a 16-bit PNG atomically (fixed encoder settings: same pixels, same bytes);
+/// returns the file's content hash (sha256, hex) for the frames table.
+pub fn write_depth_png(path: &Path, depth: &DepthImage) -> Result<String> {
     // The encoder takes 16-bit samples in native byte order and writes them big-endian.
     let bytes: Vec<u8> = depth
         .as_raw()
@@ -94,7 +95,7 @@ pub fn write_depth_png(path: &Path, depth: &DepthImage) -> Result<()> {
             source,
         })?;
     stage::write_atomic(path, &buf)?;
-    Ok(())
+    Ok(stage::sha256_bytes(&buf))
 }
 
 /// The file names a rendered depth map of the frame `name_stem` may have in a rendered
@@ -267,8 +268,9 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let p = dir.path().join("sub/d.depth.png");
         let d = DepthImage::from_fn(17, 9, |x, y| Luma([(x * 3001 + y * 17) as u16]));
-        write_depth_png(&p, &d).unwrap();
+        let sha256 = write_depth_png(&p, &d).unwrap();
         assert_eq!(read_depth_png(&p).unwrap(), d);
+        assert_eq!(sha256, stage::sha256_file(&p).unwrap());
     }
 
     #[test]

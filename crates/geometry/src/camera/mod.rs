@@ -21,8 +21,10 @@ pub struct Camera {
 }
 
 impl Camera {
-    /// Checked constructor: parameter count must match the model and every parameter
-    /// must be finite. (Size 0 is allowed: some tools write it for unknown sizes.)
+    /// Checked constructor: the camera must pass [`Camera::validate`]. Every reader of a
+    /// camera (COLMAP models, the frames and label tables, query lists, `--camera`) builds
+    /// it here, so an impossible camera is refused where it is read, with the reader's
+    /// file and place around the message.
     pub fn new(
         model: CameraModel,
         width: u64,
@@ -39,7 +41,13 @@ impl Camera {
         Ok(cam)
     }
 
-    /// Checks parameter count and finiteness (for values built field by field).
+    /// Checks that the camera can exist: the parameter count of its model, every
+    /// parameter finite, a positive size, positive focal lengths (for EQUIRECTANGULAR,
+    /// positive `w` and `h`), and a principal point no further outside the image than
+    /// the image's own size. A negative focal length images the scene turned 180 degrees
+    /// about the optical axis and a focal length of 0 images nothing; a principal point
+    /// a million pixels away puts every pixel far off the axis: poses estimated with
+    /// such a camera are wrong without any sign of it, so they are refused here.
     pub fn validate(&self) -> Result<(), GeometryError> {
         let expected = self.model.num_params();
         if self.params.len() != expected {
@@ -49,12 +57,49 @@ impl Camera {
                 got: self.params.len(),
             });
         }
+        let names = self.model.param_names();
         for (index, &value) in self.params.iter().enumerate() {
             if !value.is_finite() {
                 return Err(GeometryError::NonFiniteParam {
                     index,
-                    name: self.model.param_names()[index],
+                    name: names[index],
                     value,
+                });
+            }
+        }
+        if self.width == 0 || self.height == 0 {
+            return Err(GeometryError::InvalidSize {
+                width: self.width,
+                height: self.height,
+            });
+        }
+        let (what, positive): (&'static str, &[usize]) = if self.model.is_perspective() {
+            ("focal length", self.model.focal_length_idxs())
+        } else {
+            ("sphere size", &[0, 1])
+        };
+        for &i in positive {
+            let value = self.params[i];
+            if value <= 0.0 {
+                return Err(GeometryError::NonPositiveParam {
+                    what,
+                    name: names[i],
+                    value,
+                });
+            }
+        }
+        let sizes = [self.width, self.height];
+        for (&i, size) in self.model.principal_point_idxs().iter().zip(sizes) {
+            let value = self.params[i];
+            let s = size as f64;
+            if !(-s..=2.0 * s).contains(&value) {
+                return Err(GeometryError::PrincipalPointOutside {
+                    name: names[i],
+                    value,
+                    width: self.width,
+                    height: self.height,
+                    low: -s,
+                    high: 2.0 * s,
                 });
             }
         }

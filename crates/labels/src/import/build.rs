@@ -3,10 +3,11 @@
 
 use super::config::ImportConfig;
 use super::error::ImportError;
-use super::join::{join_names, limap_problem, model_problem};
+use super::join::{join_names, limap_problem, limap_root_prefix, model_problem};
 use super::labelling::Labelling;
 use super::problems::ImportProblem;
 use super::report::ImportReport;
+use crate::names::NameMapping;
 use colmap::Reconstruction;
 use limap::LimapDir;
 use std::collections::HashMap;
@@ -104,9 +105,30 @@ impl Joined {
             &mut report.model.test_images_skipped,
             model_problem,
         );
+        // Without a mapping, LIMAP 1.x's absolute paths lose their common dataset root
+        // (`join::limap_root_prefix`); the report says which.
+        let names: Vec<&str> = limap
+            .image_list
+            .images
+            .iter()
+            .map(|(_, n)| n.as_str())
+            .collect();
+        let root = config
+            .limap_names
+            .is_identity()
+            .then(|| limap_root_prefix(&names, &by_name))
+            .flatten();
+        let limap_names = match &root {
+            Some(prefix) => NameMapping {
+                strip_prefix: Some(prefix.clone()),
+                ..NameMapping::identity()
+            },
+            None => config.limap_names.clone(),
+        };
+        report.limap.root_prefix_stripped = root;
         let limap_of = join_names(
             limap.image_list.images.iter().cloned(),
-            &config.limap_names,
+            &limap_names,
             &by_name,
             config.allow_test_images,
             problems,

@@ -26,7 +26,9 @@ impl<'a> Inputs<'a> {
     pub(crate) fn open(config: &'a ImportConfig, frames_path: &Path) -> Result<Self, ImportError> {
         let (model_dir, limap_dir) = config.inputs()?;
         let weights = superpoint_weights(config);
-        let frames_sha256 = stage::sha256_file(frames_path)?;
+        // Only the ingest stage's recorded table (crates/stage/src/record.rs,
+        // `recorded_file`): a refused or killed ingest leaves none to read.
+        let frames_sha256 = stage::recorded_file(frames_path, &[tables::frames::FRAMES_STAGE])?;
         let model_files = model_files(model_dir)?;
         // Reading LIMAP's folder fixes which segments and tracks folders are used (and
         // refuses an ambiguous one) before anything is hashed.

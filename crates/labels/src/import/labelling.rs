@@ -314,12 +314,29 @@ impl<'a> Labelling<'a> {
         report.pose_disagreement.rotation_deg = Spread::of(&self.rotations);
         report.pose_disagreement.worst_frame = self.worst.map(|(_, s)| s);
         if report.limap.ids_differ_from_model > 0 {
-            report.warnings.push(format!(
-                "{} training frame(s) have a LIMAP image id different from their COLMAP \
-                 image id (joined by name; LIMAP built from this model would keep COLMAP's \
-                 ids)",
-                report.limap.ids_differ_from_model
-            ));
+            // LIMAP 1.x numbered its images by position (the list form of image_list.txt,
+            // crates/limap/src/image_list.rs): its ids differ from COLMAP's by design.
+            let by_position = self
+                .limap
+                .image_list
+                .ids()
+                .enumerate()
+                .all(|(k, id)| id as usize == k);
+            report.warnings.push(if by_position {
+                format!(
+                    "{} training frame(s) have a LIMAP image id different from their COLMAP \
+                     image id (joined by name; LIMAP numbers these images by position from \
+                     0, as LIMAP 1.x did)",
+                    report.limap.ids_differ_from_model
+                )
+            } else {
+                format!(
+                    "{} training frame(s) have a LIMAP image id different from their COLMAP \
+                     image id (joined by name; LIMAP built from this model would keep \
+                     COLMAP's ids)",
+                    report.limap.ids_differ_from_model
+                )
+            });
         }
         tables.sort();
         Ok((tables, report))

@@ -29,6 +29,11 @@ pub struct LimapCounts {
     /// is by name; LIMAP keeps COLMAP's ids when built from a COLMAP model, so a
     /// difference hints at a model from another run).
     pub ids_differ_from_model: usize,
+    /// The prefix stripped from every LIMAP image name without a `limap_names` mapping:
+    /// LIMAP 1.x writes absolute paths, and every name was this dataset root followed by
+    /// a frames table name. Absent when the names joined as they are (or were mapped).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub root_prefix_stripped: Option<String>,
 }
 
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -155,6 +160,12 @@ impl ImportReport {
             self.config.model_names,
             self.config.limap_names
         ));
+        if let Some(prefix) = &self.limap.root_prefix_stripped {
+            s.push_str(&format!(
+                "LIMAP names: the dataset root {prefix:?} stripped from every name (each rest \
+                 is a frames table name)\n"
+            ));
+        }
         s.push_str(&format!(
             "model: {} images ({} used), {} points3D; LIMAP: {} images, {} tracks of {} ({} \
              used)\n",

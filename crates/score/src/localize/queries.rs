@@ -61,7 +61,10 @@ pub fn parse_query_list(text: &str, path: &Path) -> Vec<Query> {
         let camera = if spec.is_empty() {
             Err("no camera after the image name (expected `name MODEL W H PARAMS...`)".into())
         } else {
-            pose::io::parse_camera(spec).map_err(|e| format!("camera: {e}"))
+            // `parse_camera` builds the camera with `Camera::new`, which refuses one that
+            // cannot exist (focal length <= 0, principal point far outside the image): a
+            // bad query then, not a pose. Its message starts with `camera: `.
+            pose::io::parse_camera(spec).map_err(|e| e.to_string())
         };
         let camera = match first_line.get(name) {
             Some(first) => Err(format!("{name} is listed twice (first at line {first})")),
@@ -80,10 +83,16 @@ pub fn parse_query_list(text: &str, path: &Path) -> Vec<Query> {
 
 /// Every `.png`, `.jpg` and `.jpeg` under `dir` (recursively, any case), named by its
 /// `/`-separated path relative to `dir`, in byte order, all with `camera`. A name with
-/// whitespace (which the results file cannot hold) becomes a failed query.
-pub fn folder_queries(dir: &Path, camera: &Camera) -> Result<Vec<Query>, ScoreError> {
-    let files = tables::image_file::list(dir).map_err(io_err(dir))?;
-    let mut names: Vec<String> = files
+/// whitespace (which the results file cannot hold) becomes a failed query. Second: one
+/// line per link not followed because it leads to a folder listed already (a link
+/// cycle; `tables::image_file::list`), for the caller to warn with.
+pub fn folder_queries(
+    dir: &Path,
+    camera: &Camera,
+) -> Result<(Vec<Query>, Vec<String>), ScoreError> {
+    let listing = tables::image_file::list(dir).map_err(io_err(dir))?;
+    let mut names: Vec<String> = listing
+        .files
         .iter()
         .map(|path| {
             let rel = path.strip_prefix(dir).unwrap_or(path);
@@ -95,7 +104,7 @@ pub fn folder_queries(dir: &Path, camera: &Camera) -> Result<Vec<Query>, ScoreEr
         })
         .collect();
     names.sort();
-    Ok(names
+    let queries = names
         .into_iter()
         .enumerate()
         .map(|(i, name)| Query {
@@ -108,7 +117,8 @@ pub fn folder_queries(dir: &Path, camera: &Camera) -> Result<Vec<Query>, ScoreEr
             },
             name,
         })
-        .collect())
+        .collect();
+    Ok((queries, listing.skipped))
 }
 
 /// The image of a query as a frame to localise (no ground truth: identity pose, never
@@ -117,7 +127,9 @@ pub fn folder_queries(dir: &Path, camera: &Camera) -> Result<Vec<Query>, ScoreEr
 pub fn load_query(images: &Path, q: &Query) -> Result<TestFrame, String> {
     let camera = q.camera.clone()?;
     let path: PathBuf = images.join(&q.name);
-    let bytes = std::fs::read(&path).map_err(|e| format!("{}: {e}", path.display()))?;
+    // Within bounds: no device or FIFO, the header and the pixel limit before the rest,
+    // no more bytes than the header's image can take (crates/fileio/src/image.rs).
+    let bytes = fileio::image::read_image(&path).map_err(|e| e.to_string())?;
     // The structural check ingest makes: a file cut short is refused with the byte
     // offset instead of being decoded with its missing part filled in.
     let format: ImageFormat = tables::image_file::check_complete(&bytes)
@@ -187,6 +199,36 @@ mod tests {
         assert!(q[5].camera.is_ok());
     }
 
+    /// A camera that cannot exist is a bad query naming what is wrong, never a pose
+    /// (docs/errors.md).
+    #[test]
+    fn impossible_cameras_are_bad_queries() {
+        let text = "neg.png SIMPLE_PINHOLE 640 480 -525 320 240\n\
+                    zero.png PINHOLE 640 480 525 0 320 240\n\
+                    far.png SIMPLE_PINHOLE 640 480 525 1e12 240\n\
+                    ok.png SIMPLE_PINHOLE 640 480 525 320 240\n";
+        let q = parse_query_list(text, Path::new("q.txt"));
+        let reason = |i: usize| q[i].camera.as_ref().unwrap_err().clone();
+        assert_eq!(
+            reason(0),
+            "camera: focal length f = -525 must be positive and finite"
+        );
+        assert_eq!(
+            reason(1),
+            "camera: focal length fy = 0 must be positive and finite"
+        );
+        assert!(
+            reason(2).starts_with("camera: principal point cx = 1000000000000 lies more than"),
+            "{}",
+            reason(2)
+        );
+        assert_eq!(q[2].origin, "q.txt:3");
+        assert!(q[3].camera.is_ok());
+        // `load_query` hands the reason on (`run` puts the query's origin before it).
+        let e = load_query(Path::new("."), &q[0]).unwrap_err();
+        assert!(e.contains("focal length f = -525"), "{e}");
+    }
+
     #[test]
     fn folder_queries_are_sorted_relative_names() {
         let dir = tempfile::tempdir().unwrap();
@@ -195,7 +237,8 @@ mod tests {
             std::fs::write(dir.path().join(f), b"x").unwrap();
         }
         let cam = pose::io::parse_camera("SIMPLE_PINHOLE 4 3 2 2 1.5").unwrap();
-        let q = folder_queries(dir.path(), &cam).unwrap();
+        let (q, skipped) = folder_queries(dir.path(), &cam).unwrap();
+        assert!(skipped.is_empty());
         let names: Vec<_> = q.iter().map(|q| q.name.as_str()).collect();
         assert_eq!(names, ["a.png", "b/1.jpeg", "b/2.JPG", "c d.png"]);
         assert!(q[3].camera.is_err());
@@ -210,5 +253,72 @@ mod tests {
         };
         let e = load_query(dir.path(), &missing).unwrap_err();
         assert!(e.contains("gone.png"), "{e}");
+    }
+
+    /// Images read within bounds (crates/fileio/src/image.rs): `/dev/zero`, a PNG over the
+    /// pixel limit and a sparse file of 3 GB behind a small PNG header are refused naming
+    /// the file, before their pixels are read; no OpenCV text.
+    #[cfg(unix)]
+    #[test]
+    fn dev_zero_an_oversized_png_and_a_sparse_file_are_refused_by_name() {
+        use image::ImageEncoder;
+        use image::codecs::png::{CompressionType, FilterType, PngEncoder};
+        use std::io::Write;
+        let dir = tempfile::tempdir().unwrap();
+        let cam = pose::io::parse_camera("SIMPLE_PINHOLE 16 12 10 8 6").unwrap();
+        let query = |name: &str| Query {
+            id: 0,
+            name: name.into(),
+            origin: format!("q.txt:{name}"),
+            camera: Ok(cam.clone()),
+        };
+        if Path::new("/dev/zero").exists() {
+            std::os::unix::fs::symlink("/dev/zero", dir.path().join("zero.png")).unwrap();
+            let e = load_query(dir.path(), &query("zero.png")).unwrap_err();
+            assert_eq!(
+                e,
+                format!(
+                    "{}: not a regular file but a device: an image must be a PNG or JPEG file",
+                    dir.path().join("zero.png").display()
+                )
+            );
+        }
+        let (w, h) = (20_000u32, 20_000u32);
+        let mut huge = Vec::new();
+        PngEncoder::new_with_quality(&mut huge, CompressionType::Fast, FilterType::NoFilter)
+            .write_image(
+                &vec![0u8; w as usize * h as usize],
+                w,
+                h,
+                image::ExtendedColorType::L8,
+            )
+            .unwrap();
+        std::fs::write(dir.path().join("huge.png"), &huge).unwrap();
+        let e = load_query(dir.path(), &query("huge.png")).unwrap_err();
+        assert_eq!(
+            e,
+            format!(
+                "{}: the PNG is too large: 20000x20000 is 400000000 pixels, the limit is \
+                 50000000 pixels (set PL2MAP_MAX_IMAGE_PIXELS to change it)",
+                dir.path().join("huge.png").display()
+            )
+        );
+        let mut small = Vec::new();
+        PngEncoder::new(&mut small)
+            .write_image(&[0u8; 16 * 12], 16, 12, image::ExtendedColorType::L8)
+            .unwrap();
+        let sparse = dir.path().join("sparse.png");
+        let mut f = std::fs::File::create(&sparse).unwrap();
+        f.write_all(&small).unwrap();
+        f.set_len(3 << 30).unwrap();
+        drop(f);
+        let e = load_query(dir.path(), &query("sparse.png")).unwrap_err();
+        assert!(
+            e.starts_with(&format!(
+                "{}: the file is 3221225472 bytes",
+                sparse.display()
+            )),
+            "{e}"
+        );
     }
 }

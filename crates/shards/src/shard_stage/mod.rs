@@ -26,11 +26,13 @@
 //! record is `source.rs`, the work units' manifests (checking and merging them) are
 //! `units.rs`, and the stage's error and file names are `error.rs` and `names.rs`.
 
+mod checked;
 mod error;
 mod names;
 mod source;
 mod units;
 
+pub use checked::checked_manifest;
 pub use error::ShardStageError;
 pub use names::{MANIFEST_FILE, STAGE, TEST_PREFIX, TRAIN_PREFIX};
 
@@ -42,7 +44,8 @@ use stage::{Done, RecordCheck, Stage};
 use std::collections::{BTreeMap, BTreeSet};
 use std::ops::Range;
 use std::path::Path;
-use tables::labels::{LINES_FILE, POINTS_FILE, POSES_FILE};
+use tables::frames::FRAMES_STAGE;
+use tables::labels::{LABEL_FILES, LABEL_STAGES};
 use tables::{FramesTable, LabelTables, Split};
 use units::{finish_if_complete, load_manifest, save_record, unit_manifest_name, unit_up_to_date};
 
@@ -225,7 +228,10 @@ fn run_unit(
     range: Option<Range<usize>>,
 ) -> Result<(ShardOutput, bool), ShardStageError> {
     config.validate()?;
-    let frames_sha256 = stage::sha256_file(frames_path)?;
+    // The tables only as their stages recorded them: not what a refused or killed run
+    // left, nor a file changed afterwards (crates/stage/src/record.rs).
+    let frames_sha256 = stage::recorded_file(frames_path, &[FRAMES_STAGE])?;
+    let label_record = stage::recorded_outputs(labels_dir, &LABEL_STAGES, &LABEL_FILES)?;
     let frames = FramesTable::read_parquet(frames_path)?;
     let labels = LabelTables::read(labels_dir)?;
     labels.require_frames(frames_path, &frames_sha256)?;
@@ -256,11 +262,9 @@ fn run_unit(
     let full = range == (0..count);
     let unit = (!full).then(|| range.clone());
     let mut inputs = BTreeMap::from([("frames".to_string(), frames_sha256)]);
-    for f in [POINTS_FILE, LINES_FILE, POSES_FILE] {
-        inputs.insert(
-            format!("labels/{f}"),
-            stage::sha256_file(&labels_dir.join(f))?,
-        );
+    // Checked by `recorded_outputs`: the record lists each table with its hash now.
+    for f in LABEL_FILES {
+        inputs.insert(format!("labels/{f}"), label_record.outputs[f].clone());
     }
     // Work units write disjoint shards of one folder side by side: they share it, and
     // a whole run waits for them (and they for it).

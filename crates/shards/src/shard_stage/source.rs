@@ -6,7 +6,6 @@
 
 use super::error::ShardStageError;
 use crate::{FrameRecord, ImageFormat, ShardConfig, ShardError, ShardPlan, SourceDigest};
-use fileio::IoResultExt;
 use std::collections::HashMap;
 use std::ops::Range;
 use std::path::PathBuf;
@@ -101,7 +100,9 @@ impl Source<'_> {
     /// The frame's record with its image file, which must still be the one ingested.
     pub(super) fn load(&self, frame_id: u64) -> Result<FrameRecord, SourceError> {
         let (mut rec, f) = self.describe(frame_id)?;
-        let bytes = std::fs::read(&f.path).at(&f.path)?;
+        // Within bounds: no device or FIFO, the pixel limit checked on the header first
+        // (crates/fileio/src/image.rs).
+        let bytes = fileio::image::read_image(&f.path)?;
         let actual = stage::sha256_bytes(&bytes);
         if actual != f.content_hash {
             return Err(SourceError::Changed {

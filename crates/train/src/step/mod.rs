@@ -4,10 +4,6 @@ pub mod groups;
 mod optimizer;
 
 use groups::GroupPools;
-pub use optimizer::{
-    ADAM_BETA_1, ADAM_BETA_2, ADAM_EPSILON, Pl2MapOptimizer, adam_config, cpu_gradients,
-    new_optimizer,
-};
 use model::burn::module::{AutodiffModule, Module};
 use model::burn::optim::{GradientsParams, Optimizer};
 use model::burn::tensor::Tensor;
@@ -15,6 +11,10 @@ use model::burn::tensor::backend::AutodiffBackend;
 use model::{
     Dropout, LossConfig, LossValues, ModelConfig, ModelError, Pl2Map, Pl2MapBackend, Sample,
     compute_loss,
+};
+pub use optimizer::{
+    ADAM_BETA_1, ADAM_BETA_2, ADAM_EPSILON, Pl2MapOptimizer, adam_config, cpu_gradients,
+    new_optimizer,
 };
 use std::ops::Range;
 use std::sync::Barrier;

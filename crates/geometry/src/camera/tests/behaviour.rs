@@ -214,9 +214,20 @@ fn bad_input_returns_none_without_panicking() {
         assert_eq!(short.project(&Vector3::new(0.0, 0.0, 1.0)), None);
         assert_eq!(short.unproject(&Vector2::new(1.0, 1.0)), None);
     }
-    // Degenerate parameters: zero focal length or image size give no pixel.
-    let c = cam(CameraModel::SimpleRadial, &[0.0, 320.0, 240.0, 0.1]);
+    // Degenerate parameters: zero focal length or image size give no pixel. Built field
+    // by field: `Camera::new` refuses both (tests.rs).
+    let c = Camera {
+        model: CameraModel::SimpleRadial,
+        width: 640,
+        height: 480,
+        params: vec![0.0, 320.0, 240.0, 0.1],
+    };
     assert_eq!(c.unproject(&Vector2::new(1.0, 1.0)), None);
-    let c = Camera::new(CameraModel::Equirectangular, 0, 0, vec![0.0, 0.0]).unwrap();
+    let c = Camera {
+        model: CameraModel::Equirectangular,
+        width: 0,
+        height: 0,
+        params: vec![0.0, 0.0],
+    };
     assert_eq!(c.unproject(&Vector2::new(1.0, 1.0)), None);
 }
