@@ -42,6 +42,27 @@ fn a_list_form_image_list_with_absolute_paths_reads_with_ids_by_position() {
         text.push_str(&format!("{prefix}{name}\n"));
     }
     std::fs::write(root.join("image_list.txt"), &text).unwrap();
+    // The file is what LIMAP itself writes: its own writer, run on the same names, gives
+    // the same bytes (skipped with the reason when LIMAP is not installed).
+    if let Some(python) = testkit::python::limap_python(&["limap"]) {
+        let by_limap = tmp.path().join("image_list_by_limap.txt");
+        let names: Vec<String> = list
+            .images
+            .iter()
+            .map(|(_, n)| format!("{prefix}{n}"))
+            .collect();
+        testkit::python::run(
+            std::process::Command::new(python)
+                .arg("-c")
+                .arg(
+                    "import sys, limap.util.io as io; \
+                     io.save_txt_imname_list(sys.argv[1], sys.argv[2:])",
+                )
+                .arg(&by_limap)
+                .args(&names),
+        );
+        assert_eq!(std::fs::read_to_string(&by_limap).unwrap(), text);
+    }
 
     let dir = LimapDir::load(&root, &LimapDirOptions::default()).unwrap();
     let expected: Vec<(u32, String)> = mini

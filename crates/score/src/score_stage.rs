@@ -140,10 +140,12 @@ impl stage::Note for ScoreStageOutput {
 }
 
 /// The shards of `split` listed in the folder's manifest, as record inputs
-/// (`shard/<file>` -> sha256).
+/// (`shard/<file>` -> sha256). The manifest is the one the shard stage recorded; the
+/// shards themselves are hashed once, by [`crate::scoring::shard_paths`], when the
+/// stage reads them.
 fn shard_inputs(shards_dir: &Path, split: Split) -> Result<BTreeMap<String, String>, ScoreError> {
     let path = shards_dir.join(shards::MANIFEST_FILE);
-    let manifest = shards::checked_manifest(shards_dir).map_err(|e| ScoreError::Manifest {
+    let manifest = shards::recorded_manifest(shards_dir).map_err(|e| ScoreError::Manifest {
         path: path.clone(),
         reason: e.to_string(),
     })?;

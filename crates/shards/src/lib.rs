@@ -41,7 +41,7 @@ pub use manifest::{Manifest, ManifestShard};
 pub use plan::{ShardPlan, plan_shards, shard_file_name};
 pub use reader::{ReaderOptions, ShardFile, ShardReader};
 pub use record::{FrameRecord, ImageFormat, LabelSource, Split};
-pub use shard_stage::{MANIFEST_FILE, checked_manifest, shards_of_split};
+pub use shard_stage::{MANIFEST_FILE, checked_manifest, recorded_manifest, shards_of_split};
 pub use visual::{
     CAMERA_FRAME, LINES_ENTITY_ID, WORLD_FRAME, camera_calibration, camera_transform,
     foxglove_distortion, identity_pose,

@@ -13,20 +13,7 @@ use std::path::Path;
 /// docs): the stage's `stage.json` lists `manifest.json` and every shard with the
 /// content hash each file has now, and no planned shard or frame is missing.
 pub fn checked_manifest(dir: &Path) -> Result<Manifest, ShardError> {
-    let record = stage::recorded_outputs(dir, &[STAGE], &[MANIFEST_FILE])?;
-    let path = dir.join(MANIFEST_FILE);
-    let manifest = Manifest::load(&path)?;
-    let listed: u64 = manifest.shards.iter().map(|s| s.frame_count).sum();
-    if !manifest.is_complete() {
-        return Err(ShardError::IncompleteManifest {
-            path,
-            reason: format!(
-                "missing shard(s) {:?}, {listed} of {} planned frames listed",
-                manifest.missing_shards(),
-                manifest.planned_frames
-            ),
-        });
-    }
+    let (manifest, record) = recorded_manifest_and_record(dir)?;
     // Every shard as recorded and as it is now, hashed in parallel; the first mismatch
     // in manifest order is reported, whatever the thread count.
     let problems: Vec<Option<String>> = manifest
@@ -65,4 +52,31 @@ pub fn checked_manifest(dir: &Path) -> Result<Manifest, ShardError> {
         .into());
     }
     Ok(manifest)
+}
+
+/// The manifest of the shard stage's finished run in `dir`, without reading the shards:
+/// the record lists `manifest.json` with its current hash and no planned shard or frame
+/// is missing. For a reader that takes the shards' hashes as its record's inputs before
+/// it knows whether it will read them (the score stage's skip check); whoever reads the
+/// shards goes through [`checked_manifest`].
+pub fn recorded_manifest(dir: &Path) -> Result<Manifest, ShardError> {
+    Ok(recorded_manifest_and_record(dir)?.0)
+}
+
+fn recorded_manifest_and_record(dir: &Path) -> Result<(Manifest, stage::StageRecord), ShardError> {
+    let record = stage::recorded_outputs(dir, &[STAGE], &[MANIFEST_FILE])?;
+    let path = dir.join(MANIFEST_FILE);
+    let manifest = Manifest::load(&path)?;
+    let listed: u64 = manifest.shards.iter().map(|s| s.frame_count).sum();
+    if !manifest.is_complete() {
+        return Err(ShardError::IncompleteManifest {
+            path,
+            reason: format!(
+                "missing shard(s) {:?}, {listed} of {} planned frames listed",
+                manifest.missing_shards(),
+                manifest.planned_frames
+            ),
+        });
+    }
+    Ok((manifest, record))
 }

@@ -32,7 +32,7 @@ mod names;
 mod source;
 mod units;
 
-pub use checked::checked_manifest;
+pub use checked::{checked_manifest, recorded_manifest};
 pub use error::ShardStageError;
 pub use names::{MANIFEST_FILE, STAGE, TEST_PREFIX, TRAIN_PREFIX};
 
