@@ -174,6 +174,11 @@ impl Pl2MapBackend for burn::backend::NdArray {
 #[cfg(feature = "cuda")]
 impl Pl2MapBackend for burn::backend::Cuda {}
 
+/// PyTorch's own kernels: the composed operations (softmax, attention, dense layers)
+/// each map to one ATen call, so no kernel of this crate is needed.
+#[cfg(feature = "tch")]
+impl Pl2MapBackend for burn::backend::LibTorch<f32> {}
+
 #[derive(Debug)]
 struct SoftmaxLast;
 

@@ -5,8 +5,8 @@
 //! - [`Pl2MapBackend`] (`backend.rs`): a burn `Backend` with the operations this network
 //!   makes its own: a fused softmax backward, multi-head attention and dense layers as
 //!   one operation, and the line encoder's head split. Implemented for Flex (with the
-//!   kernels below), NdArray, CUDA and their `Autodiff` wrappers; the defaults compose
-//!   burn's operations. [`ops`] gives the tensor-level entries.
+//!   kernels below), NdArray, CUDA, LibTorch and their `Autodiff` wrappers; the defaults
+//!   compose burn's operations. [`ops`] gives the tensor-level entries.
 //! - The Flex CPU kernels: `attention_kernel.rs` (attention, its softmax row by row in
 //!   place: `softmax_rows.rs`), `dense_kernel.rs` (dense layers; the input gradient of a
 //!   layer with few rows as its transpose, `transpose.rs`), `permute.rs` (the head split's
@@ -18,6 +18,9 @@
 //! - The process settings a training step runs under: [`autodiff_lock`] (burn 0.21's
 //!   autodiff is not safe for two threads differentiating at once), [`denormals`]
 //!   (threads that flush denormals), [`alloc`] (freed memory kept for reuse).
+//! - What the machine offers a GPU engine, asked before one starts: [`cuda_driver`] (the
+//!   NVIDIA driver library: missing, the toolkit's stub, how many GPUs) and, with the
+//!   `tch` feature, [`libtorch`] (whether PyTorch has CUDA and sees a GPU).
 //!
 //! Every `unsafe` block of the workspace's learning code is here, each with its SAFETY
 //! comment; the network crate forbids unsafe code.
@@ -27,9 +30,12 @@ pub mod alloc;
 mod attention_kernel;
 pub mod autodiff_lock;
 pub mod backend;
+pub mod cuda_driver;
 pub mod denormals;
 mod dense_kernel;
 mod flex_matrix;
+#[cfg(feature = "tch")]
+pub mod libtorch;
 pub mod ops;
 mod permute;
 mod simd_dispatch;
@@ -56,3 +62,9 @@ pub type NdArrayAutodiffBackend = burn::backend::Autodiff<NdArrayBackend>;
 pub type CudaBackend = burn::backend::Cuda;
 #[cfg(feature = "cuda")]
 pub type CudaAutodiffBackend = burn::backend::Autodiff<CudaBackend>;
+
+/// burn's LibTorch backend (PyTorch's kernels through tch), f32.
+#[cfg(feature = "tch")]
+pub type LibTorchBackend = burn::backend::LibTorch<f32>;
+#[cfg(feature = "tch")]
+pub type LibTorchAutodiffBackend = burn::backend::Autodiff<LibTorchBackend>;

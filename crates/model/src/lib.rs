@@ -9,10 +9,12 @@
 //!
 //! Backends: the network is generic over [`Pl2MapBackend`] (crate `kernels`: a burn
 //! `Backend` with the operations this network makes its own, and their CPU kernels),
-//! implemented for Flex, NdArray, CUDA and their `Autodiff` wrappers. [`CpuBackend`]
-//! (burn's Flex backend) is the default; the `cuda` feature adds [`CudaBackend`] and the
+//! implemented for Flex, NdArray, CUDA, LibTorch and their `Autodiff` wrappers.
+//! [`CpuBackend`] (burn's Flex backend) is the default; the `cuda` feature adds
+//! `CudaBackend` (CubeCL), the `tch` feature `LibTorchBackend` (PyTorch's kernels) and the
 //! `ndarray` feature burn's NdArray backend (kept for comparison). [`Device`] is how runs
-//! choose between CPU and CUDA (`--device cpu|cuda[:N]`). The training step (optimiser,
+//! choose the engine and device (`--device cpu|cuda[:N]|libtorch:cpu|libtorch:cuda[:N]`),
+//! and `device_probe` asks the machine before a GPU run starts. The training step (optimiser,
 //! gradient groups) is the `train` crate's (`crates/train/src/step/`).
 //!
 //! The crate re-exports `burn` so that dependants use exactly the pinned version.
@@ -21,10 +23,9 @@
 
 pub mod attention;
 pub mod config;
-#[cfg(feature = "cuda")]
-mod cuda_check;
 pub mod dense;
 pub mod device;
+mod device_probe;
 pub mod dropout;
 pub mod error;
 pub mod graph;
@@ -55,5 +56,7 @@ pub use sample::{Pinhole, Sample, SampleTensors, Targets};
 pub use kernels::{CpuAutodiffBackend, CpuBackend};
 #[cfg(feature = "cuda")]
 pub use kernels::{CudaAutodiffBackend, CudaBackend};
+#[cfg(feature = "tch")]
+pub use kernels::{LibTorchAutodiffBackend, LibTorchBackend};
 #[cfg(feature = "ndarray")]
 pub use kernels::{NdArrayAutodiffBackend, NdArrayBackend};

@@ -122,9 +122,10 @@ pub const WITHOUT_REFINE: &str = "without-refine";
 
 impl Pipeline {
     /// Runs the network of `[train]` and `[score]` on `device` (`pl2map run --device`),
-    /// whatever their sections say. A device this build has no backend for is refused.
+    /// whatever their sections say. A device this build has no backend for, or this
+    /// machine cannot run (no driver, no such GPU), is refused before any stage runs.
     pub fn set_device(&mut self, device: train::Device) -> Result<()> {
-        device.check_built().map_err(|e| PipelineError::Config {
+        device.check_usable().map_err(|e| PipelineError::Config {
             path: self.origin.clone(),
             message: format!("--device: {e}"),
         })?;

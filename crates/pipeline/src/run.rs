@@ -6,10 +6,12 @@
 
 use crate::config::Pipeline;
 use crate::error::{PipelineError, Result, stage_err};
+use crate::promotion::{self, Kept, PREVIOUS_SCORE_DIR, Promotion};
 use crate::stages::StageName;
 use stage::{Done, Note};
 use std::ops::Range;
 use std::path::PathBuf;
+use std::sync::{Arc, Mutex};
 
 #[derive(Clone, Debug, PartialEq)]
 pub enum Status {
@@ -85,6 +87,8 @@ pub struct RunReport {
     pub stages: Vec<StageReport>,
     /// The score stage's summary (both variants) when that stage ran or was up to date.
     pub score: Option<score::Summary>,
+    /// The promotion gate's decision, when a warm start trained a new model.
+    pub promotion: Option<Promotion>,
 }
 
 impl RunReport {
@@ -135,6 +139,7 @@ pub fn run(p: &Pipeline, options: &RunOptions) -> Result<RunReport> {
     let mut stages = Vec::new();
     // The score stage's summary, when it ran or was up to date.
     let mut score_summary = None;
+    let decision: Arc<Mutex<Option<Promotion>>> = Arc::default();
     for stage in StageName::ALL {
         let dir = p.stage_dir(stage);
         let report = if stage > last {
@@ -142,17 +147,62 @@ pub fn run(p: &Pipeline, options: &RunOptions) -> Result<RunReport> {
         } else if options.shards.is_some() && stage > StageName::Shard {
             StageReport::off(stage, dir, "a --shards work unit ends with its shards")
         } else {
-            let r = run_stage(p, stage, dir, options, &mut score_summary)?;
+            let r = run_stage(p, stage, dir, options, &mut score_summary, &decision)?;
             let (status, notes) = r.status_and_notes();
             tracing::info!("{stage}: {status}, {notes}");
             r
         };
         stages.push(report);
     }
+    let promotion = decision.lock().unwrap_or_else(|p| p.into_inner()).take();
+    if let Some(d) = &promotion {
+        tracing::info!("{}", d.verdict());
+    }
     Ok(RunReport {
         stages,
         score: score_summary,
+        promotion,
     })
+}
+
+/// The promotion gate of a warm start (None without `[score]`): scores the new model
+/// into `<work>/score` and the previous one into `<work>/score-previous` with the
+/// pipeline's `[score]`, decides (`promotion::decide`) and leaves the decision in
+/// `decision` for the run's report.
+fn gate(p: &Pipeline, decision: &Arc<Mutex<Option<Promotion>>>) -> Option<train::Gate> {
+    let Some(config) = p.file.score.clone() else {
+        tracing::warn!("--warm-start without [score]: no promotion gate, the new model is kept");
+        return None;
+    };
+    let shards = p.stage_dir(StageName::Shard);
+    let (new_dir, previous_dir) = (
+        p.stage_dir(StageName::Score),
+        p.work.join(PREVIOUS_SCORE_DIR),
+    );
+    let decision = Arc::clone(decision);
+    Some(train::Gate(Arc::new(move |new, previous| {
+        let score = |model: &std::path::Path, out: &std::path::Path| {
+            score::score_stage::run(
+                &config,
+                &shards,
+                &score::Source::Network(model.to_path_buf()),
+                out,
+            )
+            .map(|d| d.output.summary)
+            .map_err(|e| format!("scoring {}: {e}", model.display()))
+        };
+        let new = score(new, &new_dir)?;
+        let previous = score(previous, &previous_dir)?;
+        let (kept, reason) = promotion::decide(&new, &previous);
+        let keep_new = kept == Kept::New;
+        *decision.lock().unwrap_or_else(|p| p.into_inner()) = Some(Promotion {
+            new,
+            previous,
+            kept,
+            reason,
+        });
+        Ok(keep_new)
+    })))
 }
 
 /// One stage of `p` into `dir`.
@@ -162,6 +212,7 @@ fn run_stage(
     dir: PathBuf,
     options: &RunOptions,
     score_summary: &mut Option<score::Summary>,
+    decision: &Arc<Mutex<Option<Promotion>>>,
 ) -> Result<StageReport> {
     let name = stage.as_str();
     let frames = p.frames_path();
@@ -219,10 +270,12 @@ fn run_stage(
                     ),
                     None => (c.clone(), None),
                 };
+                let gate = init.as_ref().and_then(|_| gate(p, decision));
                 let opts = train::TrainStageOptions {
                     only_if_new_shards: init.is_some(),
                     init,
                     progress: options.progress,
+                    gate,
                     ..Default::default()
                 };
                 let done =

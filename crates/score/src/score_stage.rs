@@ -166,9 +166,12 @@ pub fn run(
     resolved.validate()?;
     // Before anything is read or written.
     #[cfg(feature = "network")]
-    config.device.check_built().map_err(|e| ScoreError::Model {
-        reason: e.to_string(),
-    })?;
+    config
+        .device
+        .check_usable()
+        .map_err(|e| ScoreError::Model {
+            reason: e.to_string(),
+        })?;
     let (split, source_hash) = match source {
         Source::Network(model) => (Split::Test, stage::sha256_file(model)?),
         Source::Oracle => (Split::Train, "oracle".to_string()),

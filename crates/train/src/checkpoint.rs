@@ -19,7 +19,7 @@ use model::burn::record::{
 };
 use model::burn::tensor::Tensor;
 use model::burn::tensor::backend::{AutodiffBackend, Backend};
-use model::{Pl2Map, Pl2MapBackend};
+use model::{Device, Pl2Map, Pl2MapBackend};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::io::Write;
@@ -234,10 +234,14 @@ impl CheckpointFile {
             header.config.front_end.descriptor.method = features::DescriptorMethod::Opencv;
             header.config.front_end.lsd.implementation = features::LsdImplementation::Opencv;
         }
-        header
-            .config
-            .validate()
-            .map_err(|e| ck_err(path, format!("configuration: {e}")))?;
+        // The device recorded is where the network trained, not where it is read: a
+        // checkpoint from a GPU (or LibTorch) build loads in any build.
+        TrainConfig {
+            device: Device::Cpu,
+            ..header.config.clone()
+        }
+        .validate()
+        .map_err(|e| ck_err(path, format!("configuration: {e}")))?;
         if header.has_optimizer == optimizer.is_empty() {
             return Err(ck_err(path, "header and optimiser state disagree"));
         }

@@ -322,8 +322,8 @@ impl TrainConfig {
         }
         let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
         match self.device {
-            Device::Cpu => 1,
-            Device::Cuda(_) => cores.saturating_sub(1).max(1),
+            Device::Cpu | Device::LibTorchCpu => 1,
+            Device::Cuda(_) | Device::LibTorchCuda(_) => cores.saturating_sub(1).max(1),
         }
     }
 

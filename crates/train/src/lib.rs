@@ -15,6 +15,8 @@
 pub mod augment;
 pub mod checkpoint;
 pub mod config;
+pub mod descriptor_cache;
+pub mod descriptor_spill;
 pub mod error;
 pub mod import_reference;
 pub mod metrics;
@@ -34,5 +36,5 @@ pub use error::TrainError;
 /// Where a run trains or predicts (`--device cpu|cuda[:N]`).
 pub use model::Device;
 pub use predict::{ImagePrediction, PredictedLine, PredictedPoint, Predictor};
-pub use train_stage::{TrainOutput, TrainStageOptions};
+pub use train_stage::{Gate, TrainOutput, TrainStageOptions};
 pub use trainer::{MeanLosses, RunOptions, TrainSummary, train, train_on};

@@ -59,6 +59,8 @@ enum Network {
     Cpu(Pl2Map<CpuBackend>),
     #[cfg(feature = "cuda")]
     Cuda(Pl2Map<model::CudaBackend>),
+    #[cfg(feature = "tch")]
+    LibTorch(Pl2Map<model::LibTorchBackend>),
 }
 
 impl Network {
@@ -67,6 +69,8 @@ impl Network {
             Network::Cpu(n) => n.predict(points, lines)?,
             #[cfg(feature = "cuda")]
             Network::Cuda(n) => n.predict(points, lines)?,
+            #[cfg(feature = "tch")]
+            Network::LibTorch(n) => n.predict(points, lines)?,
         })
     }
 }
@@ -87,7 +91,8 @@ impl Predictor {
     /// [`Predictor::load`] with the network on `device` (whatever device trained it:
     /// a checkpoint holds plain f32 weights). SuperPoint runs there too; SIFT and LSD on the CPU.
     pub fn load_on(checkpoint: &Path, device: Device) -> Result<Self, TrainError> {
-        device.check_built()?;
+        device.check_usable()?;
+        model::device::explain_gpu_panics(device);
         let ck = CheckpointFile::read(checkpoint)?;
         let network = match device {
             Device::Cpu => Network::Cpu(ck.model::<CpuBackend>(&Default::default())?),
@@ -95,6 +100,14 @@ impl Predictor {
             Device::Cuda(i) => Network::Cuda(ck.model::<model::CudaBackend>(&Device::cuda(i))?),
             #[cfg(not(feature = "cuda"))]
             Device::Cuda(_) => return Err(device.not_built().into()),
+            #[cfg(feature = "tch")]
+            Device::LibTorchCpu | Device::LibTorchCuda(_) => {
+                Network::LibTorch(ck.model::<model::LibTorchBackend>(&device.libtorch())?)
+            }
+            #[cfg(not(feature = "tch"))]
+            Device::LibTorchCpu | Device::LibTorchCuda(_) => {
+                return Err(device.not_built().into());
+            }
         };
         let mut p = Self::with_network(network, ck.header.config, device)?;
         p.centre = ck.header.scene_centre;

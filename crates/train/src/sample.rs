@@ -10,13 +10,14 @@
 
 use crate::augment::{self, AugmentConfig, AugmentParams};
 pub use crate::config::Limits;
+pub use crate::descriptor_cache::DescriptorCache;
+use crate::descriptor_cache::select;
 use crate::error::TrainError;
 use features::FrontEnd;
 use geometry::{Camera, Pose};
 use image::GrayImage;
 use rand::Rng;
 use shards::FrameRecord;
-use std::sync::{Arc, RwLock};
 
 /// A training sample and what was done to the frame to make it.
 #[derive(Clone, Debug)]
@@ -40,7 +41,7 @@ pub fn decode_gray(frame: &FrameRecord) -> Result<GrayImage, TrainError> {
 }
 
 /// [`decode_gray`], checking the image against the frame's camera.
-fn decode_checked(frame: &FrameRecord) -> Result<GrayImage, TrainError> {
+pub(crate) fn decode_checked(frame: &FrameRecord) -> Result<GrayImage, TrainError> {
     let gray = decode_gray(frame)?;
     if (gray.width() as u64, gray.height() as u64) != (frame.camera.width, frame.camera.height) {
         return Err(frame_err(
@@ -81,178 +82,6 @@ fn subsample<R: Rng>(len: usize, max: usize, rng: &mut R) -> Vec<usize> {
     let mut picked = rand::seq::index::sample(rng, len, max).into_vec();
     picked.sort_unstable();
     picked
-}
-
-/// A frame's descriptor rows: (points, N x D; line samples, M x T x D).
-type FrameDescriptors = (Vec<f32>, Vec<f32>);
-
-/// Descriptors of whole frames as they are (no augmentation), by frame id, so that an
-/// unaugmented sample needs no front-end call. Every keypoint of a kind has the same
-/// fixed size, so a subset's descriptors equal the rows of the whole set's (the
-/// test `cached_descriptors_are_the_described_ones` holds that). Filled up to a byte
-/// budget, up front by [`DescriptorCache::prefill`] or as frames come; frames past it
-/// are described each time (same values, more time). Shared by the sample workers:
-/// readers take a frame's rows under a read lock, a described frame goes in under a
-/// write lock (describing happens outside any lock).
-#[derive(Debug, Default)]
-pub struct DescriptorCache {
-    inner: RwLock<CacheInner>,
-    budget_bytes: usize,
-}
-
-#[derive(Debug, Default)]
-struct CacheInner {
-    frames: std::collections::HashMap<u64, Arc<FrameDescriptors>>,
-    bytes: usize,
-}
-
-impl DescriptorCache {
-    pub fn new(budget_mib: usize) -> Self {
-        DescriptorCache {
-            budget_bytes: budget_mib << 20,
-            ..Default::default()
-        }
-    }
-
-    /// The map; a worker that panicked while holding the lock left it consistent (every
-    /// change is one insert), so a poisoned lock is used as it is.
-    fn read(&self) -> std::sync::RwLockReadGuard<'_, CacheInner> {
-        self.inner.read().unwrap_or_else(|p| p.into_inner())
-    }
-
-    fn write(&self) -> std::sync::RwLockWriteGuard<'_, CacheInner> {
-        self.inner.write().unwrap_or_else(|p| p.into_inner())
-    }
-
-    pub fn len(&self) -> usize {
-        self.read().frames.len()
-    }
-
-    pub fn is_empty(&self) -> bool {
-        self.read().frames.is_empty()
-    }
-
-    /// Describes the frames of `paths` (in file order, on the rayon pool, a few frames at a
-    /// time) until the budget is full, so the first epoch does not wait for them one by
-    /// one on the sample workers. What is cached never changes a sample (cached rows are
-    /// the described ones), so this changes the speed of a run, not its results.
-    pub fn prefill(
-        &self,
-        paths: &[std::path::PathBuf],
-        fe: &dyn FrontEnd,
-        bar: &indicatif::ProgressBar,
-    ) -> Result<(), TrainError> {
-        let chunk = 2 * rayon::current_num_threads().max(1);
-        let mut planned = self.read().bytes;
-        let mut batch = Vec::with_capacity(chunk);
-        let reader = shards::ShardReader::open(paths)?;
-        bar.set_length(
-            reader
-                .shards()
-                .iter()
-                .map(|s| s.frame_ids().count() as u64)
-                .sum(),
-        );
-        for frame in reader {
-            let frame = frame?;
-            if self.contains(frame.frame_id) {
-                continue;
-            }
-            // Sized before describing, as `get` does.
-            let size = 4 * fe.dim() * rows(&frame, fe);
-            if planned + size > self.budget_bytes {
-                break;
-            }
-            planned += size;
-            batch.push(frame);
-            if batch.len() == chunk {
-                self.describe_batch(std::mem::take(&mut batch), fe, bar)?;
-            }
-        }
-        self.describe_batch(batch, fe, bar)
-    }
-
-    fn describe_batch(
-        &self,
-        frames: Vec<FrameRecord>,
-        fe: &dyn FrontEnd,
-        bar: &indicatif::ProgressBar,
-    ) -> Result<(), TrainError> {
-        use rayon::prelude::*;
-        // Decoded side by side, then described as one batch (SuperPoint runs one network
-        // pass per image size; SIFT describes the images side by side).
-        let images: Vec<Result<GrayImage, TrainError>> =
-            frames.par_iter().map(decode_checked).collect();
-        let images = images.into_iter().collect::<Result<Vec<_>, _>>()?;
-        let items: Vec<features::LabelledImage<'_>> = images
-            .iter()
-            .zip(&frames)
-            .map(|(i, f)| (i, f.keypoints.as_slice(), f.segments.as_slice()))
-            .collect();
-        let described = fe.describe_batch(&items);
-        for (f, d) in frames.iter().zip(described) {
-            let (p, l) = d?;
-            self.insert(f.frame_id, p, l);
-            bar.inc(1);
-        }
-        Ok(())
-    }
-
-    /// Adds a frame if the budget has room for it; returns what the cache holds for it.
-    fn insert(&self, frame_id: u64, p: Vec<f32>, l: Vec<f32>) -> Option<Arc<FrameDescriptors>> {
-        let mut inner = self.write();
-        if let Some(d) = inner.frames.get(&frame_id) {
-            return Some(Arc::clone(d));
-        }
-        let size = 4 * (p.len() + l.len());
-        if inner.bytes + size > self.budget_bytes {
-            return None;
-        }
-        inner.bytes += size;
-        let d = Arc::new((p, l));
-        inner.frames.insert(frame_id, Arc::clone(&d));
-        Some(d)
-    }
-
-    /// Whether the frame's descriptors are cached.
-    pub fn contains(&self, frame_id: u64) -> bool {
-        self.read().frames.contains_key(&frame_id)
-    }
-
-    /// (point rows, line rows) of the frame's keypoints and segments, if cached.
-    fn cached(&self, frame_id: u64) -> Option<Arc<FrameDescriptors>> {
-        self.read().frames.get(&frame_id).map(Arc::clone)
-    }
-
-    /// Describes a frame that is not cached (`image` is its unaugmented image) and keeps
-    /// its rows if the budget has room; None (and no work) when it has none.
-    fn describe_and_keep(
-        &self,
-        frame: &FrameRecord,
-        image: &GrayImage,
-        fe: &dyn FrontEnd,
-    ) -> Result<Option<Arc<FrameDescriptors>>, TrainError> {
-        // Sized before describing: a frame past the budget costs nothing extra.
-        let size = 4 * fe.dim() * rows(frame, fe);
-        if self.read().bytes + size > self.budget_bytes {
-            return Ok(None);
-        }
-        let (p, l) = describe_on(image, frame, fe)?;
-        Ok(self.insert(frame.frame_id, p, l))
-    }
-}
-
-/// Descriptor rows of a whole frame (keypoints, and T samples per segment).
-fn rows(frame: &FrameRecord, fe: &dyn FrontEnd) -> usize {
-    frame.keypoints.len() + frame.segments.len() * fe.samples_per_line()
-}
-
-fn describe_on(
-    image: &GrayImage,
-    frame: &FrameRecord,
-    fe: &dyn FrontEnd,
-) -> Result<FrameDescriptors, TrainError> {
-    Ok(fe.describe(image, &frame.keypoints, &frame.segments)?)
 }
 
 /// Builds the sample of `frame`. With `augment = None` the frame is used as it is (the
@@ -307,45 +136,28 @@ pub fn prepare_with_cache<R: Rng>(
             .iter()
             .zip(&segments)
             .all(|(&j, s)| frame.segments[j] == *s);
-    // The rows of the whole frame, in the order of the sample's keypoints and segments.
-    // Whole rows copied as slices (the cost is reading rows scattered over the cache,
-    // not the copy: docs/performance.md, "The reader thread's image copy").
-    let rows_of = |all: &[f32], index: &[usize], width: usize| -> Vec<f32> {
-        let mut out = Vec::with_capacity(index.len() * width);
-        for &i in index {
-            out.extend_from_slice(&all[i * width..(i + 1) * width]);
-        }
-        out
-    };
-    let select = |(p, l): &FrameDescriptors| -> (Vec<f32>, Vec<f32>) {
-        let d = front_end.dim();
-        let td = front_end.samples_per_line() * d;
-        (
-            rows_of(p, &keypoint_index, d),
-            rows_of(l, &segment_index, td),
-        )
-    };
     // Only a sample at the frame's own positions can use the whole frame's rows.
     let cache = cache.filter(|_| unchanged);
-    let (mut point_descriptors, mut line_descriptors) =
-        match cache.and_then(|c| c.cached(frame.frame_id)) {
-            // A cached frame needs no image at all: decoding it was most of the sample's
-            // cost (the frame was checked when it was cached).
-            Some(rows) => select(&rows),
-            None => {
-                let gray = decode_checked(frame)?;
-                let image = augment::warp_image(&gray, &frame.camera, &params)
-                    .map_err(|e| frame_err(frame, format!("augmentation: {e}")))?;
-                let kept = match cache {
-                    Some(c) => c.describe_and_keep(frame, &image, front_end)?,
-                    None => None,
-                };
-                match kept {
-                    Some(rows) => select(&rows),
-                    None => front_end.describe(&image, &keypoints, &segments)?,
-                }
+    let held =
+        cache.and_then(|c| c.rows(frame.frame_id, &keypoint_index, &segment_index, front_end));
+    let (mut point_descriptors, mut line_descriptors) = match held {
+        // A cached frame needs no image at all: decoding it was most of the sample's
+        // cost (the frame was checked when it was cached).
+        Some(rows) => rows?,
+        None => {
+            let gray = decode_checked(frame)?;
+            let image = augment::warp_image(&gray, &frame.camera, &params)
+                .map_err(|e| frame_err(frame, format!("augmentation: {e}")))?;
+            let kept = match cache {
+                Some(c) => c.describe_and_keep(frame, &image, front_end)?,
+                None => None,
+            };
+            match kept {
+                Some(all) => select(&all, &keypoint_index, &segment_index, front_end),
+                None => front_end.describe(&image, &keypoints, &segments)?,
             }
-        };
+        }
+    };
 
     // Drawn after everything else, and nothing is drawn when it is off: without it the
     // stream is the same.
@@ -615,85 +427,6 @@ mod tests {
         for (k, &i) in a.keypoint_index.iter().enumerate() {
             assert_eq!(a.sample.keypoints[k][0], f.keypoints[i][0] as f32);
         }
-    }
-
-    /// A cached unaugmented sample is exactly the described one, for many subsets; an
-    /// augmented one bypasses the cache; a zero budget caches nothing.
-    #[test]
-    fn cached_descriptors_are_the_described_ones() {
-        let f = frame(3, 40, 6, 0.0);
-        let fe = front_end();
-        let limits = Limits {
-            max_keypoints: 12,
-            max_lines: 3,
-        };
-        let cache = DescriptorCache::new(64);
-        for seed in 0..6 {
-            let mut r1 = seeds::rng(seed, Purpose::Sample, 0);
-            let mut r2 = seeds::rng(seed, Purpose::Sample, 0);
-            let plain = prepare(&f, &fe, None, &limits, &mut r1).unwrap();
-            let cached = prepare_with_cache(&f, &fe, None, &limits, &mut r2, Some(&cache)).unwrap();
-            assert_eq!(plain.sample, cached.sample, "seed {seed}");
-        }
-        assert_eq!(cache.len(), 1);
-        // A cached frame's image is not decoded again (the cost it saves).
-        let mut broken = f.clone();
-        broken.image_bytes.truncate(40);
-        let mut r1 = seeds::rng(9, Purpose::Sample, 0);
-        let mut r2 = seeds::rng(9, Purpose::Sample, 0);
-        let plain = prepare(&f, &fe, None, &limits, &mut r1).unwrap();
-        let cached = prepare_with_cache(&f, &fe, None, &limits, &mut r2, Some(&cache)).unwrap();
-        assert_eq!(plain.sample, cached.sample);
-        let aug = AugmentConfig {
-            probability: 1.0,
-            ..AugmentConfig::default()
-        };
-        let fresh = DescriptorCache::new(64);
-        let mut r = seeds::rng(1, Purpose::Sample, 0);
-        prepare_with_cache(&f, &fe, Some(&aug), &limits, &mut r, Some(&fresh)).unwrap();
-        assert!(fresh.is_empty());
-        let none = DescriptorCache::new(0);
-        let mut r = seeds::rng(1, Purpose::Sample, 0);
-        prepare_with_cache(&f, &fe, None, &limits, &mut r, Some(&none)).unwrap();
-        assert!(none.is_empty());
-    }
-
-    /// Prefilling describes every frame of the shards (up to the budget) exactly as a
-    /// sample would: a prefilled cache gives the plain samples.
-    #[test]
-    fn prefilled_cache_gives_the_described_samples() {
-        let dir = tempfile::tempdir().unwrap();
-        let paths = write_synthetic_shards(dir.path(), 2, 3, 0.0);
-        let fe = front_end();
-        let limits = Limits {
-            max_keypoints: 7,
-            max_lines: 2,
-        };
-        let cache = DescriptorCache::new(64);
-        cache
-            .prefill(&paths, &fe, &indicatif::ProgressBar::hidden())
-            .unwrap();
-        assert_eq!(cache.len(), 6);
-        for frame in shards::ShardReader::open(&paths).unwrap() {
-            let f = frame.unwrap();
-            assert!(cache.contains(f.frame_id));
-            let mut r1 = seeds::rng(3, Purpose::Sample, f.frame_id);
-            let mut r2 = seeds::rng(3, Purpose::Sample, f.frame_id);
-            let plain = prepare(&f, &fe, None, &limits, &mut r1).unwrap();
-            let cached = prepare_with_cache(&f, &fe, None, &limits, &mut r2, Some(&cache)).unwrap();
-            assert_eq!(plain.sample, cached.sample);
-        }
-        // A budget for about one frame caches a prefix of the file order, no more.
-        let one = 4 * features::SIFT_DIM * rows(&frame(0, 40, 6, 0.0), &fe);
-        let small = DescriptorCache {
-            budget_bytes: one + one / 2,
-            ..DescriptorCache::default()
-        };
-        small
-            .prefill(&paths, &fe, &indicatif::ProgressBar::hidden())
-            .unwrap();
-        assert!(!small.is_empty() && small.len() < 6, "{}", small.len());
-        assert!(small.read().bytes <= small.budget_bytes);
     }
 
     #[test]

@@ -27,6 +27,7 @@ use shards::Split;
 use stage::{Done, RecordCheck, Stage, StageRecord};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 pub const STAGE: &str = "train";
 /// The copy of the model a run started from, kept next to what it became (the given
@@ -35,6 +36,23 @@ pub const INIT_FILE: &str = "warm-start.ckpt";
 /// What an unfinished run is: written before the first step, so a rerun recognises its
 /// checkpoint (and resumes it) or knows it may replace it.
 pub const RUN_FILE: &str = ".train-run.json";
+/// A warm-started model the promotion gate did not keep: the folder's `model.ckpt` is
+/// then the model the run started from (`pl2map run --warm-start`, docs/operations.md).
+pub const REJECTED_FILE: &str = "model.rejected.ckpt";
+
+/// The promotion gate of a warm start: `(new model, model it started from)` -> whether
+/// the new one replaces the old. Called after the run, before the stage is recorded.
+#[derive(Clone)]
+pub struct Gate(pub Arc<GateFn>);
+
+/// `(new model, previous model) -> keep the new one?`, or why it could not decide.
+pub type GateFn = dyn Fn(&Path, &Path) -> Result<bool, String> + Send + Sync;
+
+impl std::fmt::Debug for Gate {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("Gate")
+    }
+}
 
 /// How to run (what is not part of the configuration).
 #[derive(Clone, Debug, Default)]
@@ -50,6 +68,9 @@ pub struct TrainStageOptions {
     /// Replaces the configuration's iteration count.
     pub iterations: Option<u64>,
     pub progress: bool,
+    /// With `init`: decides whether the new model replaces the one it started from; a
+    /// model it refuses is kept as [`REJECTED_FILE`] and `model.ckpt` is the old one.
+    pub gate: Option<Gate>,
 }
 
 /// What the stage holds.
@@ -116,6 +137,9 @@ pub fn run(
     // The whole configuration (a CUDA device in a CPU build among it) before anything
     // is read or written.
     config.validate()?;
+    // The machine too (driver, GPU index), before anything is written.
+    config.device.check_usable()?;
+    model::device::explain_gpu_panics(config.device);
     if options.resume {
         // Refused before the folder's record is touched: a resume under another
         // configuration must not cost the finished run its record.
@@ -219,6 +243,11 @@ pub fn run(
             dir.display()
         )));
     }
+    if let (Some(gate), Some(_)) = (&options.gate, &options.init)
+        && !promote(gate, dir)?
+    {
+        outputs.path(REJECTED_FILE);
+    }
     for f in [MODEL_FILE, CHECKPOINT_FILE, METRICS_FILE, CONFIG_FILE] {
         outputs.path(f);
     }
@@ -232,6 +261,23 @@ pub fn run(
         skipped: false,
         seconds: start.elapsed().as_secs_f64(),
     })
+}
+
+/// Runs the gate on the folder's new model and the copy of the model it started from;
+/// when the gate keeps the old one, the new one becomes [`REJECTED_FILE`] and the old one
+/// `model.ckpt` again. Returns whether the new one was kept.
+fn promote(gate: &Gate, dir: &Path) -> Result<bool, TrainError> {
+    let (model, previous) = (dir.join(MODEL_FILE), dir.join(INIT_FILE));
+    let keep_new = (gate.0)(&model, &previous)
+        .map_err(|e| TrainError::Config(format!("promotion gate: {e}")))?;
+    remove_if_exists(&dir.join(REJECTED_FILE))?;
+    if !keep_new {
+        let rejected = dir.join(REJECTED_FILE);
+        std::fs::rename(&model, &rejected).map_err(io_err(&rejected))?;
+        let bytes = std::fs::read(&previous).map_err(io_err(&previous))?;
+        stage::write_atomic(&model, &bytes)?;
+    }
+    Ok(keep_new)
 }
 
 /// Decides what to do with the files of an earlier run before a fresh one; returns

@@ -16,6 +16,8 @@ use crate::checkpoint::{
     CHECKPOINT_FILE, CheckpointFile, CheckpointHeader, MODEL_FILE, save, write_atomic,
 };
 use crate::config::TrainConfig;
+use crate::descriptor_cache::SpillTarget;
+use crate::descriptor_spill::SPILL_FILE;
 use crate::error::{TrainError, io_err};
 use crate::metrics::{MetricsRow, MetricsWriter};
 use crate::plot::{PLOT_FILE, plot_metrics};
@@ -97,6 +99,13 @@ pub fn train(
         }
         #[cfg(not(feature = "cuda"))]
         Device::Cuda(_) => Err(config.device.not_built().into()),
+        #[cfg(feature = "tch")]
+        Device::LibTorchCpu | Device::LibTorchCuda(_) => {
+            let device = config.device.libtorch();
+            train_on::<model::LibTorchAutodiffBackend>(config, shards, options, &device)
+        }
+        #[cfg(not(feature = "tch"))]
+        Device::LibTorchCpu | Device::LibTorchCuda(_) => Err(config.device.not_built().into()),
     }
 }
 
@@ -161,7 +170,15 @@ pub fn train_on<B: AutodiffBackend<InnerBackend: Pl2MapBackend> + Pl2MapBackend>
     // them one after another (the same weights either way).
     let group_threads = config.device.is_cpu().then(rayon::current_num_threads);
     state.set_batch_groups(config.batch_groups, group_threads)?;
-    let mut stream = sample_stream(&config, shards, front_end, centre, start, options.progress)?;
+    let spill_path = out.join(SPILL_FILE);
+    let mut stream = sample_stream(
+        &config,
+        shards,
+        front_end,
+        (centre, start),
+        &spill_path,
+        options.progress,
+    )?;
     let frames_per_epoch = stream.frames_per_epoch();
     // On the CPU the stream refills while Adam runs, not while the groups want the cores
     // (stream.rs, `hold_places`); on a GPU it refills at once, as the device waits on it.
@@ -253,6 +270,15 @@ pub fn train_on<B: AutodiffBackend<InnerBackend: Pl2MapBackend> + Pl2MapBackend>
     drop(stream);
 
     let finished = !killed && done >= config.iterations;
+    if finished {
+        // The spilled descriptors serve only this run (and its resumption).
+        match std::fs::remove_file(&spill_path) {
+            Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
+                return Err(io_err(&spill_path)(e).into());
+            }
+            _ => {}
+        }
+    }
     let (model_path, plot_path) = if finished {
         if start == done {
             // Nothing left to train: the checkpoint already holds the final state.
@@ -461,8 +487,8 @@ fn sample_stream(
     config: &TrainConfig,
     shards: &[PathBuf],
     front_end: Arc<dyn features::FrontEnd>,
-    centre: [f64; 3],
-    start: u64,
+    (centre, start): ([f64; 3], u64),
+    spill_path: &Path,
     progress: bool,
 ) -> Result<FrameStream<Prepared>, TrainError> {
     let stream_cfg = StreamConfig {
@@ -476,17 +502,30 @@ fn sample_stream(
     };
     let (aug, limits, seed) = (config.augment.clone(), config.limits.clone(), config.seed);
     let batch = config.batch_frames as u64;
-    let cache = Arc::new(DescriptorCache::new(config.descriptor_cache_mib));
-    // Unaugmented samples take their descriptors from the cache: fill it up front on
-    // every core instead of one frame at a time on the reader thread during the first
-    // epoch (about 100 s of a 15-minute CPU run on the synthetic scene). Results do not
-    // depend on it.
+    let mut cache = DescriptorCache::new(config.descriptor_cache_mib);
+    // Unaugmented samples take their descriptors from the cache: describe every frame
+    // once, up front on every core, into memory and past its budget into the spill file
+    // (descriptor_cache.rs). Results do not depend on it.
     if config.descriptor_cache_mib > 0 && config.augment.probability < 1.0 {
         let bar = progress_bar(0, 0, progress);
         bar.set_message("describing frames for the descriptor cache");
-        cache.prefill(shards, front_end.as_ref(), &bar)?;
+        let key = spill_key(front_end.config(), shards)?;
+        let target = SpillTarget {
+            path: spill_path,
+            key,
+        };
+        cache.prefill(shards, front_end.as_ref(), &bar, Some(target))?;
         bar.finish_and_clear();
+        if cache.spilled() > 0 {
+            tracing::info!(
+                "descriptors: {} frames in memory, {} in {}",
+                cache.len(),
+                cache.spilled(),
+                spill_path.display()
+            );
+        }
     }
+    let cache = Arc::new(cache);
     // Runs on the sample workers: a sample's randomness is its stream position's, so
     // the samples do not depend on which worker prepares them or how many there are.
     FrameStream::start(shards, stream_cfg, start * batch, move |at, frame| {
@@ -502,6 +541,29 @@ fn sample_stream(
         recentre(&mut p.sample, &centre);
         Ok(p)
     })
+}
+
+/// The key of a spill file: the front-end's configuration and each shard's name, size
+/// and modification time (a rewritten shard set is another set).
+fn spill_key(
+    front_end: &features::FrontEndConfig,
+    shards: &[PathBuf],
+) -> Result<[u8; 32], TrainError> {
+    let mut text = serde_json::to_string(front_end)
+        .map_err(|e| TrainError::Config(format!("front-end configuration: {e}")))?;
+    for path in shards {
+        let meta = std::fs::metadata(path).map_err(io_err(path))?;
+        let modified = meta
+            .modified()
+            .ok()
+            .and_then(|t| t.duration_since(std::time::UNIX_EPOCH).ok())
+            .map_or(0, |d| d.as_nanos());
+        text.push_str(&format!("\n{} {} {modified}", path.display(), meta.len()));
+    }
+    let hex = stage::sha256_bytes(text.as_bytes());
+    let mut key = [0u8; 32];
+    key.copy_from_slice(&hex.as_bytes()[..32]);
+    Ok(key)
 }
 
 /// The next `n` samples of the stream, and the frame id of the first (the metrics row's).

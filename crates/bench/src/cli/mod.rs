@@ -4,6 +4,7 @@ pub mod colmap;
 pub mod features;
 pub mod localize;
 pub mod pose;
+pub mod scale;
 pub mod stages;
 
 use clap::Subcommand;
@@ -20,6 +21,8 @@ pub enum Command {
     Localize(localize::Args),
     /// Frames/s of ingest + import + shard against decoding the images alone.
     Stages(stages::Args),
+    /// Every stage's seconds and peak memory, and the training step, at several scene sizes.
+    Scale(scale::Args),
 }
 
 pub fn run(cmd: Command) -> anyhow::Result<()> {
@@ -29,5 +32,6 @@ pub fn run(cmd: Command) -> anyhow::Result<()> {
         Command::Features(a) => features::run(a),
         Command::Stages(a) => stages::run(a),
         Command::Localize(a) => localize::run(a),
+        Command::Scale(a) => scale::run(a),
     }
 }

@@ -87,5 +87,13 @@ pub fn run(args: Args, quiet: bool) -> anyhow::Result<()> {
         );
         crate::out!("{}", summary.table());
     }
+    // The gate's decision is the run's last line (docs/operations.md, "Nightly retraining").
+    if let Some(promotion) = &report.promotion {
+        crate::outln!(
+            "\npromotion gate: the new and the previous model on the same test frames:\n"
+        );
+        crate::out!("{}", promotion.table());
+        crate::outln!("\n{}", promotion.verdict());
+    }
     Ok(())
 }

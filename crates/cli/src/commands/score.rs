@@ -13,7 +13,9 @@ use std::path::PathBuf;
 #[derive(clap::Args, Debug)]
 #[command(group(clap::ArgGroup::new("source").required(true).args(["checkpoint", "oracle"])))]
 pub struct Args {
-    /// Shard folder (with its complete manifest.json) of the shard stage.
+    /// Shard folder (with its complete manifest.json) of the shard stage, or the URL of
+    /// one: `s3://bucket/prefix`, `https://host/path` (fetched into a local cache;
+    /// docs/operations.md, "Shards from object storage").
     #[arg(long)]
     pub shards: PathBuf,
     /// Output folder.
@@ -36,7 +38,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         Some(ckpt) => Source::Network(ckpt.clone()),
         None => Source::Oracle,
     };
-    let done = score::score_stage::run(&args.config, &args.shards, &source, &args.out)
+    // A URL becomes the cache folder it was fetched into, each shard checked.
+    let (shards, fetched) = remote::resolve(&args.shards)?;
+    if let Some(report) = &fetched {
+        crate::outln!("{}", report.line());
+    }
+    let done = score::score_stage::run(&args.config, &shards, &source, &args.out)
         .with_context(|| format!("scoring the shards in {}", args.shards.display()))?;
     crate::outln!("{}", done.line("score"));
     crate::out!("{}", done.output.summary.markdown());

@@ -12,7 +12,9 @@ use train::{TrainConfig, TrainStageOptions};
 
 #[derive(clap::Args, Debug)]
 pub struct Args {
-    /// Shard folder (holds manifest.json).
+    /// Shard folder (holds manifest.json), or the URL of one: `s3://bucket/prefix`,
+    /// `https://host/path` (fetched into a local cache; docs/operations.md, "Shards from
+    /// object storage").
     #[arg(long)]
     pub shards: PathBuf,
     /// Output folder.
@@ -57,7 +59,12 @@ pub fn run(args: Args, matches: &clap::ArgMatches, quiet: bool) -> anyhow::Resul
         progress: !quiet,
         ..TrainStageOptions::default()
     };
-    let done = train::train_stage::run(&config, &args.shards, &args.out, &options)
+    // A URL becomes the cache folder it was fetched into, each shard checked.
+    let (shards, fetched) = remote::resolve(&args.shards)?;
+    if let Some(report) = &fetched {
+        crate::outln!("{}", report.line());
+    }
+    let done = train::train_stage::run(&config, &shards, &args.out, &options)
         .with_context(|| format!("training into {}", args.out.display()))?;
     crate::outln!("{}", done.line("train"));
     let c = &done.output.config;
