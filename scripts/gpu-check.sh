@@ -9,7 +9,9 @@
 #      wall time: `gpu_step`;
 #   4. the paper network (pipeline/synthetic-paper.toml's [train]) on the synthetic
 #      room's shards for a fixed budget of GPU time (iterations = budget / the step time
-#      of a short calibration run), scored (points + lines under 5 cm / 5 deg);
+#      of a short calibration run), scored (points + lines under 5 cm / 5 deg), and the
+#      first training step's seconds with an empty kernel cache (the calibration run) and
+#      with the cache it left (the training run);
 # then one table. `--dry-run` runs the same steps on the CPU (libtorch:cpu for the tch
 # build, cpu for the cuda build; step 2 only where an engine has a CPU device) with small
 # budgets and the tiny synthetic scene.
@@ -104,7 +106,14 @@ for e in cuda tch; do [ -x "$dir/$e/pl2map" ] && engines+=("$e"); done
 [ $dry = 1 ] && [ -x "$dir/cpu/pl2map" ] && engines+=(cpu)
 [ ${#engines[@]} -gt 0 ] || { echo "gpu-check.sh: no engine binaries under $dir/{cuda,tch}/" >&2; exit 2; }
 env_for() { # the environment of engine $1's binaries
-    if [ "$1" = tch ]; then echo "LD_LIBRARY_PATH=$torch_lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"; else echo "PL2MAP_UNUSED=1"; fi
+    # cuda: CubeCL's compiled kernels and autotune results in a folder of this check, empty
+    # at the start (crates/model/src/kernel_cache.rs): the calibration run of step 4
+    # starts cold, the training run after it warm.
+    if [ "$1" = tch ]; then echo "LD_LIBRARY_PATH=$torch_lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"; else echo "PL2MAP_KERNEL_CACHE=$out/kernel-cache-$1"; fi
+}
+first_step() { # the first training step's seconds (compilation included) of run folder $1
+    [ -f "$1/metrics.csv" ] || { echo "-"; return; }
+    python3 -c 'import csv,sys; r=next(csv.DictReader(open(sys.argv[1])), None); print("-" if r is None else "%.1fs" % float(r["seconds"]))' "$1/metrics.csv"
 }
 find_shards() { find "$1" -name 'manifest.json' -path '*shard*' 2>/dev/null | head -1 | xargs -r dirname; }
 shards=""
@@ -122,8 +131,8 @@ fi
 awk '/^\[train\]/{on=1; next} /^\[train\./{on=1; sub(/^\[train\./, "["); print; next} /^\[/{on=0} on' \
     "$dir/synthetic-paper.toml" >"$out/paper-train.toml"
 
-printf '%-8s %-18s %-10s %-22s %-22s %-22s %-9s %-10s\n' engine device agreement \
-    "D=128 1st/median" "D=256 1st/median" "torch 128/256 median" iters "5cm/5deg" >"$table"
+printf '%-8s %-18s %-10s %-22s %-22s %-22s %-16s %-9s %-10s\n' engine device agreement \
+    "D=128 1st/median" "D=256 1st/median" "torch 128/256 median" "1st step cold/warm" iters "5cm/5deg" >"$table"
 
 for e in "${engines[@]}"; do
     bin="$dir/$e"
@@ -204,8 +213,9 @@ PY
             fi
         fi
     fi
-    printf '%-8s %-18s %-10s %-22s %-22s %-22s %-9s %-10s\n' "$e" "$device" "$agreement" \
-        "$step128" "$step256" "$torchs" "$iters" "$score" >>"$table"
+    printf '%-8s %-18s %-10s %-22s %-22s %-22s %-16s %-9s %-10s\n' "$e" "$device" "$agreement" \
+        "$step128" "$step256" "$torchs" "$(first_step "$out/$e-calib")/$(first_step "$out/$e-train")" \
+        "$iters" "$score" >>"$table"
 done
 
 echo

@@ -38,15 +38,20 @@ pub fn run(
 ) -> Result<Done<RefineOutput>, RefineError> {
     config.validate()?;
     let inputs = Inputs::open(frames_path, labels_dir)?;
-    Stage::new(STAGE, out, config, inputs.hashes.clone())?.run(
+    let depth_paths = inputs.depth_paths();
+    let Inputs {
+        labels,
+        units_per_metre,
+        hashes,
+        ..
+    } = inputs;
+    Stage::new(STAGE, out, config, hashes)?.run(
         |dir| {
             let report = label_folder::read_report(&dir.join(REPORT_FILE))?;
             Ok(RefineOutput { report })
         },
         |outputs| {
-            let depth_paths = inputs.depth_paths();
-            let (refined, report) =
-                refine(config, &inputs.labels, &depth_paths, inputs.units_per_metre)?;
+            let (refined, report) = refine(config, labels, &depth_paths, units_per_metre)?;
             label_folder::write(outputs, &refined, REPORT_FILE, &report, |e| {
                 RefineError::Config(format!("cannot encode the refine report: {e}"))
             })?;

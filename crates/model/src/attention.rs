@@ -27,6 +27,39 @@ impl<B: Backend> Projections<B> {
     }
 }
 
+/// Which keys of each image are real, for images padded to a shape bucket
+/// (`buckets.rs`): `keep` is 1 for a real key and 0 for a padded one, `bias` 0 and
+/// [`MASKED_LOGIT`]; both [groups, 1, 1, Nk / groups], broadcast over heads and queries.
+#[derive(Clone, Debug)]
+pub struct KeyMask<B: Backend> {
+    keep: Tensor<B, 4>,
+    bias: Tensor<B, 4>,
+}
+
+/// The logit bias of a padded key: its softmax weight is exactly 0 in f32 beside any real
+/// key (exp(-1e30 - max) underflows), and unlike -inf a row of padded keys only gives
+/// equal weights (no NaN), which `keep` then zeroes.
+pub const MASKED_LOGIT: f64 = -1e30;
+
+impl<B: Backend> KeyMask<B> {
+    /// The mask of images with `real[g]` real keys each among `per_image` rows; None when
+    /// no key is padded (attention then takes the unmasked path, the Flex kernel on the
+    /// CPU).
+    pub fn from_counts(real: &[usize], per_image: usize, device: &B::Device) -> Option<Self> {
+        if real.iter().all(|&r| r >= per_image) {
+            return None;
+        }
+        let groups = real.len();
+        let keep: Vec<f32> = real
+            .iter()
+            .flat_map(|&r| (0..per_image).map(move |j| if j < r { 1.0 } else { 0.0 }))
+            .collect();
+        let keep = crate::init::tensor_from::<B, 4>(keep, [groups, 1, 1, per_image], device);
+        let bias = keep.clone().sub_scalar(1.0).mul_scalar(-MASKED_LOGIT);
+        Some(KeyMask { keep, bias })
+    }
+}
+
 /// Attention of `q` ([Nq, D]) over `k`, `v` ([Nk, D]), already projected; returns the
 /// per-head contexts concatenated back to [Nq, D] (before the merge projection).
 /// Scores are scaled by 1 / sqrt(D / heads). `Nq` and `Nk` must be positive.
@@ -38,20 +71,25 @@ pub(crate) fn attend<B: Pl2MapBackend>(
     v: Tensor<B, 2>,
     heads: usize,
 ) -> Tensor<B, 2> {
-    attend_grouped(q, k, v, heads, 1)
+    attend_grouped(q, k, v, heads, 1, None)
 }
 
 /// [`attend`] for `groups` images at once: the rows of `q` are `groups` consecutive blocks
 /// of Nq / groups (one per image), those of `k` and `v` blocks of Nk / groups, and block g
 /// of the queries attends to block g of the keys only. One batched matrix product
-/// instead of one small product per image.
+/// instead of one small product per image. With `mask`, padded keys get no weight (a
+/// query whose keys are all padded gets a zero context: an empty edge set's).
 pub(crate) fn attend_grouped<B: Pl2MapBackend>(
     q: Tensor<B, 2>,
     k: Tensor<B, 2>,
     v: Tensor<B, 2>,
     heads: usize,
     groups: usize,
+    mask: Option<&KeyMask<B>>,
 ) -> Tensor<B, 2> {
+    if mask.is_some() {
+        return attend_composed(q, k, v, heads, groups, mask);
+    }
     // One operation where the backend has a kernel (Flex: attention_kernel.rs).
     if let Some(out) = B::multi_head_attention(
         q.clone().into_primitive().tensor(),
@@ -62,17 +100,18 @@ pub(crate) fn attend_grouped<B: Pl2MapBackend>(
     ) {
         return Tensor::from_primitive(TensorPrimitive::Float(out));
     }
-    attend_composed(q, k, v, heads, groups)
+    attend_composed(q, k, v, heads, groups, None)
 }
 
-/// [`attend_grouped`] as burn's operations (backends without a kernel, and the
-/// kernel's reference in tests).
+/// [`attend_grouped`] as burn's operations (backends without a kernel, masked keys, and
+/// the kernel's reference in tests).
 pub(crate) fn attend_composed<B: Pl2MapBackend>(
     q: Tensor<B, 2>,
     k: Tensor<B, 2>,
     v: Tensor<B, 2>,
     heads: usize,
     groups: usize,
+    mask: Option<&KeyMask<B>>,
 ) -> Tensor<B, 2> {
     let [rows_q, d] = q.dims();
     let [rows_k, _] = k.dims();
@@ -86,7 +125,11 @@ pub(crate) fn attend_composed<B: Pl2MapBackend>(
         .swap_dims(1, 2); // [g, h, Nq, dk]
     let k = k.reshape([groups, nk, heads, dk]).permute([0, 2, 3, 1]); // [g, h, dk, Nk]
     let v = v.reshape([groups, nk, heads, dk]).swap_dims(1, 2); // [g, h, Nk, dk]
-    let weights = softmax_last(q.matmul(k)); // [g, h, Nq, Nk]
+    let scores = q.matmul(k); // [g, h, Nq, Nk]
+    let weights = match mask {
+        None => softmax_last(scores),
+        Some(m) => softmax_last(scores + m.bias.clone()) * m.keep.clone(),
+    };
     weights.matmul(v).swap_dims(1, 2).reshape([rows_q, d])
 }
 
@@ -161,6 +204,7 @@ mod tests {
             tensor::<B, 2>(v.clone(), [g * nk, d]),
             heads,
             g,
+            None,
         );
         let mut want = Vec::new();
         for i in 0..g {
@@ -206,9 +250,9 @@ mod tests {
             let k = xt.clone().narrow(0, g * nq, g * nk).neg();
             let v = xt.clone().narrow(0, g * nq, g * nk).mul_scalar(0.5);
             let out = if kernel {
-                attend_grouped(q, k, v, heads, g)
+                attend_grouped(q, k, v, heads, g, None)
             } else {
-                attend_composed(q, k, v, heads, g)
+                attend_composed(q, k, v, heads, g, None)
             };
             let loss = (out.clone() * tensor::<AD, 2>(w.clone(), [g * nq, d])).sum();
             let grads = loss.backward();
@@ -231,9 +275,9 @@ mod tests {
             let q = tensor::<B, 2>(x[..g * nq * d].to_vec(), [g * nq, d]);
             let k = tensor::<B, 2>(x[g * nq * d..].to_vec(), [g * nk, d]);
             let out = if kernel {
-                attend_grouped(q, k.clone(), k, heads, g)
+                attend_grouped(q, k.clone(), k, heads, g, None)
             } else {
-                attend_composed(q, k.clone(), k, heads, g)
+                attend_composed(q, k.clone(), k, heads, g, None)
             };
             values(&out)
         };

@@ -94,9 +94,16 @@ impl Device {
     /// [`Device::check_built`], then whether this machine can run it: the NVIDIA driver
     /// answers, the GPU index exists (`crate::device_probe`). Runs before a run writes
     /// anything, so a missing driver is one line, not a panic in a runtime thread.
+    /// For `cuda[:N]` it also points CubeCL's kernel caches at the user's cache folder
+    /// (`crate::kernel_cache`), before anything touches the GPU.
     pub fn check_usable(&self) -> Result<(), ModelError> {
         self.check_built()?;
-        crate::device_probe::check(self)
+        crate::device_probe::check(self)?;
+        #[cfg(feature = "cuda")]
+        if let Device::Cuda(_) = self {
+            crate::kernel_cache::configure();
+        }
+        Ok(())
     }
 
     /// The error for a device this build has no backend for.
@@ -111,6 +118,7 @@ impl Device {
     /// burn's device of the CUDA backend for this index.
     #[cfg(feature = "cuda")]
     pub fn cuda(index: usize) -> burn::backend::cuda::CudaDevice {
+        crate::kernel_cache::configure();
         burn::backend::cuda::CudaDevice::new(index)
     }
 

@@ -4,7 +4,7 @@
 //! rows of both streams in one matrix product ([N + M, D]); only the attention itself is
 //! per stream. Both streams are updated from the previous layer's values.
 
-use crate::attention::{Projections, attend_grouped};
+use crate::attention::{KeyMask, Projections, attend_grouped};
 use crate::config::LayerKind;
 use crate::dense::dense;
 use crate::init::Initializer;
@@ -33,7 +33,7 @@ impl<B: Pl2MapBackend> PropagationLayer<B> {
 
     /// `x`: [n + m, D], the n point rows followed by the m line rows (n + m > 0), of
     /// `groups` images with n / groups points and m / groups lines each (in image order
-    /// within each stream); attention stays within an image.
+    /// within each stream); attention stays within an image and skips padded keys.
     fn forward(
         &self,
         x: Tensor<B, 2>,
@@ -41,10 +41,13 @@ impl<B: Pl2MapBackend> PropagationLayer<B> {
         kind: LayerKind,
         heads: usize,
         groups: usize,
+        masks: &StreamMasks<B>,
     ) -> Tensor<B, 2> {
-        let attend = |q: Tensor<B, 2>, k: Tensor<B, 2>, v: Tensor<B, 2>| {
-            attend_grouped(q, k, v, heads, groups)
-        };
+        let attend =
+            |q: Tensor<B, 2>, k: Tensor<B, 2>, v: Tensor<B, 2>, mask: &Option<KeyMask<B>>| {
+                attend_grouped(q, k, v, heads, groups, mask.as_ref())
+            };
+        let (mp, ml) = (&masks.points, &masks.lines);
         let [rows, d] = x.dims();
         let context = if n > 0 && m > 0 {
             let q = dense(&self.attention.query, x.clone(), false);
@@ -55,8 +58,8 @@ impl<B: Pl2MapBackend> PropagationLayer<B> {
             let (kp, kl) = split(k);
             let (vp, vl) = split(v);
             let (cp, cl) = match kind {
-                LayerKind::SelfAttention => (attend(qp, kp, vp), attend(ql, kl, vl)),
-                LayerKind::Cross => (attend(qp, kl, vl), attend(ql, kp, vp)),
+                LayerKind::SelfAttention => (attend(qp, kp, vp, mp), attend(ql, kl, vl, ml)),
+                LayerKind::Cross => (attend(qp, kl, vl, ml), attend(ql, kp, vp, mp)),
             };
             Tensor::cat(vec![cp, cl], 0)
         } else {
@@ -65,7 +68,7 @@ impl<B: Pl2MapBackend> PropagationLayer<B> {
                     let q = dense(&self.attention.query, x.clone(), false);
                     let k = dense(&self.attention.key, x.clone(), false);
                     let v = dense(&self.attention.value, x.clone(), false);
-                    attend(q, k, v)
+                    attend(q, k, v, if n > 0 { mp } else { ml })
                 }
                 // The other stream is empty: attention over an empty edge set is an empty
                 // sum, so the context is zero and the message is the merge bias.
@@ -79,6 +82,24 @@ impl<B: Pl2MapBackend> PropagationLayer<B> {
             true,
         );
         x + dense(&self.mlp_out, hidden, false)
+    }
+}
+
+/// The key masks of the two streams of a pass over padded images (`buckets.rs`); None
+/// where no row of the stream is padded.
+#[derive(Clone, Debug)]
+pub struct StreamMasks<B: Backend> {
+    pub points: Option<KeyMask<B>>,
+    pub lines: Option<KeyMask<B>>,
+}
+
+impl<B: Backend> StreamMasks<B> {
+    /// Nothing padded.
+    pub fn none() -> Self {
+        StreamMasks {
+            points: None,
+            lines: None,
+        }
     }
 }
 
@@ -109,21 +130,23 @@ impl<B: Pl2MapBackend> GraphNetwork<B> {
 
     /// `x`: [n + m, D], points first; returns the updated rows in the same order.
     pub fn forward(&self, x: Tensor<B, 2>, n: usize, m: usize) -> Tensor<B, 2> {
-        self.forward_grouped(x, n, m, 1)
+        self.forward_grouped(x, n, m, 1, &StreamMasks::none())
     }
 
     /// [`GraphNetwork::forward`] on `groups` images of equal size at once: `x` holds the
     /// n points of all images (image by image), then their m lines; n and m are
-    /// multiples of `groups`.
+    /// multiples of `groups`. `masks` marks the padded rows of padded images (their
+    /// outputs are meaningless; the real rows' are those of the unpadded images).
     pub fn forward_grouped(
         &self,
         mut x: Tensor<B, 2>,
         n: usize,
         m: usize,
         groups: usize,
+        masks: &StreamMasks<B>,
     ) -> Tensor<B, 2> {
         for (layer, kind) in self.layers.iter().zip(&self.kinds) {
-            x = layer.forward(x, (n, m), *kind, self.heads, groups);
+            x = layer.forward(x, (n, m), *kind, self.heads, groups, masks);
         }
         x
     }

@@ -22,6 +22,7 @@
 #![forbid(unsafe_code)]
 
 pub mod attention;
+pub mod buckets;
 pub mod config;
 pub mod dense;
 pub mod device;
@@ -32,6 +33,7 @@ pub mod graph;
 pub mod heads;
 pub mod import_reference;
 mod init;
+pub mod kernel_cache;
 pub mod line_encoder;
 pub mod loss;
 pub mod network;

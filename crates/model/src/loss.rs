@@ -10,10 +10,15 @@
 //!   the element is trusted, and letting this term push r_i down (its gradient with respect
 //!   to r_i is always positive) would fight L_r.
 //! - A segment shorter than 1e-3 px has no direction and is left out of L_pi.
+//!
+//! An image padded to a shape bucket (crates/model/src/buckets.rs) has row masks in its
+//! targets (`TargetMasks`) instead of index lists: each term then runs over all rows,
+//! masked, so its tensors keep the bucket's shape, and the padded rows add nothing to
+//! any term or gradient.
 
 use crate::error::ModelError;
 use crate::network::{Prediction, reliability};
-use crate::sample::{Subset, Targets};
+use crate::sample::{Subset, TargetMasks, Targets};
 use burn::tensor::{Bool, Tensor, backend::Backend};
 use serde::{Deserialize, Serialize};
 
@@ -274,15 +279,39 @@ fn map_term<B: Backend>(
     Some(safe_norm_rows(rows - labels).sum())
 }
 
-/// ||v - r||_2 over all rows.
+/// [`map_term`] of a padded image: sum_i mask_i ||pred_i - label_i||_2 over all rows
+/// (`count` labelled rows; None when there are none).
+fn masked_map_term<B: Backend>(
+    pred: &Tensor<B, 2>,
+    width: usize,
+    count: usize,
+    mask: &Option<Tensor<B, 2>>,
+    labels: &Option<Tensor<B, 2>>,
+) -> Option<Tensor<B, 1>> {
+    if count == 0 {
+        return None;
+    }
+    let rows = pred.clone().narrow(1, 0, width);
+    Some((safe_norm_rows(rows - labels.clone()?) * mask.clone()?).sum())
+}
+
+/// ||v - r||_2 over all rows (of a padded image: over its `real` rows, None when it has
+/// none).
 fn reliability_term<B: Backend>(
     u: Tensor<B, 2>,
     validity: &Option<Tensor<B, 2>>,
+    real: Option<(usize, &Option<Tensor<B, 2>>)>,
     beta: f64,
 ) -> Option<Tensor<B, 1>> {
     let v = validity.clone()?;
-    let diff = v - reliability(u, beta);
-    Some(diff.powi_scalar(2).sum().clamp_min(SQRT_FLOOR).sqrt())
+    let mut squares = (v - reliability(u, beta)).powi_scalar(2);
+    if let Some((count, mask)) = real {
+        if count == 0 {
+            return None;
+        }
+        squares = squares * mask.clone()?;
+    }
+    Some(squares.sum().clamp_min(SQRT_FLOOR).sqrt())
 }
 
 /// Camera-frame projection of world points [K, 3]: pixels [K, 2] and whether the depth is
@@ -335,31 +364,61 @@ fn robust_mean<B: Backend>(
     }
 }
 
-/// The predicted rows of a reprojection target set, the set, and its weights (paper's
-/// variant only).
-type TargetRows<B> = (Tensor<B, 2>, Subset<B>, Option<Tensor<B, 2>>);
+/// How a reprojection target set picks its rows: an index list, or (padded image) a
+/// row mask over all rows.
+enum Pick<B: Backend> {
+    Subset(Subset<B>),
+    Mask(Tensor<B, 2>),
+}
 
-/// Indices of the reprojection target set and, for the paper's variant, its weights.
+impl<B: Backend> Pick<B> {
+    /// The set's rows of `x` (all rows for a mask).
+    fn rows(&self, x: &Tensor<B, 2>) -> Option<Tensor<B, 2>> {
+        match self {
+            Pick::Subset(s) => s.rows(x),
+            Pick::Mask(_) => Some(x.clone()),
+        }
+    }
+
+    /// `ok` restricted to the set's rows.
+    fn restrict(&self, ok: Tensor<B, 2, Bool>) -> Tensor<B, 2, Bool> {
+        match self {
+            Pick::Subset(_) => ok,
+            Pick::Mask(m) => ok.bool_and(m.clone().greater_elem(0.5)),
+        }
+    }
+}
+
+/// The predicted rows of a reprojection target set, how it picks them, its size and
+/// its weights (paper's variant only).
+type TargetRows<B> = (Tensor<B, 2>, Pick<B>, usize, Option<Tensor<B, 2>>);
+
+/// The row masks of a padded image's labelled and unlabelled reprojection sets.
+type SetMasks<'a, B> = (&'a Option<Tensor<B, 2>>, &'a Option<Tensor<B, 2>>);
+
+/// The reprojection target set's rows and, for the paper's variant, its weights.
+/// `masks`: the labelled and unlabelled sets' row masks of a padded image.
 fn target_rows<B: Backend>(
     pred: &Tensor<B, 2>,
     u_column: usize,
     beta: f64,
-    labelled: &Subset<B>,
-    unlabelled: &Subset<B>,
+    (labelled, unlabelled): (&Subset<B>, &Subset<B>),
+    masks: Option<SetMasks<'_, B>>,
     mode: ReprojectionTargets,
 ) -> Option<TargetRows<B>> {
-    let subset = match mode {
-        ReprojectionTargets::LabelledWeighted => labelled,
-        ReprojectionTargets::Unlabelled => unlabelled,
+    let labelled_set = mode == ReprojectionTargets::LabelledWeighted;
+    let subset = if labelled_set { labelled } else { unlabelled };
+    if subset.len == 0 {
+        return None;
+    }
+    let pick = match masks {
+        None => Pick::Subset(subset.clone()),
+        Some((l, u)) => Pick::Mask(if labelled_set { l } else { u }.clone()?),
     };
-    let rows = subset.rows(pred)?;
-    let weight = match mode {
-        ReprojectionTargets::LabelledWeighted => {
-            Some(reliability(rows.clone().narrow(1, u_column, 1), beta).detach())
-        }
-        ReprojectionTargets::Unlabelled => None,
-    };
-    Some((rows, subset.clone(), weight))
+    let rows = pick.rows(pred)?;
+    let weight =
+        labelled_set.then(|| reliability(rows.clone().narrow(1, u_column, 1), beta).detach());
+    Some((rows, pick, subset.len, weight))
 }
 
 /// L_pi of the points and the size of its target set; None when the set is empty.
@@ -370,18 +429,20 @@ fn point_reprojection<B: Backend>(
     tau: f64,
 ) -> Option<(Reprojection<B>, usize)> {
     let (p, kp) = (pred.points.as_ref()?, t.keypoints.as_ref()?);
-    let (rows, subset, weight) = target_rows(
+    let (rows, pick, len, weight) = target_rows(
         p,
         3,
         pred.reliability_beta,
-        &t.labelled_points,
-        &t.unlabelled_points,
+        (&t.labelled_points, &t.unlabelled_points),
+        t.masks
+            .as_ref()
+            .map(|m: &TargetMasks<B>| (&m.labelled_points, &m.unlabelled_points)),
         cfg.reprojection_targets,
     )?;
-    let kp = subset.rows(kp)?;
+    let kp = pick.rows(kp)?;
     let (uv, ok) = project(rows.narrow(1, 0, 3), t, cfg);
     let error = safe_norm_rows(uv - kp);
-    Some((robust_mean(error, ok, weight, tau, cfg), subset.len))
+    Some((robust_mean(error, pick.restrict(ok), weight, tau, cfg), len))
 }
 
 /// L_pi of the lines: psi = the distances of both projected endpoints to the detected
@@ -393,21 +454,29 @@ fn line_reprojection<B: Backend>(
     tau: f64,
 ) -> Option<(Reprojection<B>, usize)> {
     let (l, eq) = (pred.lines.as_ref()?, t.line_equations.as_ref()?);
-    let (rows, subset, weight) = target_rows(
+    let (rows, pick, len, weight) = target_rows(
         l,
         6,
         pred.reliability_beta,
-        &t.reprojectable_labelled_lines,
-        &t.reprojectable_unlabelled_lines,
+        (
+            &t.reprojectable_labelled_lines,
+            &t.reprojectable_unlabelled_lines,
+        ),
+        t.masks.as_ref().map(|m: &TargetMasks<B>| {
+            (
+                &m.reprojectable_labelled_lines,
+                &m.reprojectable_unlabelled_lines,
+            )
+        }),
         cfg.reprojection_targets,
     )?;
-    let eq = subset.rows(eq)?;
+    let eq = pick.rows(eq)?;
     let (uv_a, ok_a) = project(rows.clone().narrow(1, 0, 3), t, cfg);
     let (uv_b, ok_b) = project(rows.narrow(1, 3, 3), t, cfg);
     let error = line_distance(uv_a, eq.clone()) + line_distance(uv_b, eq);
     Some((
-        robust_mean(error, ok_a.bool_and(ok_b), weight, tau, cfg),
-        subset.len,
+        robust_mean(error, pick.restrict(ok_a.bool_and(ok_b)), weight, tau, cfg),
+        len,
     ))
 }
 
@@ -430,26 +499,43 @@ pub fn compute_loss<B: Backend>(
         None => zero(),
     };
 
-    let map_points = take(
-        pred.points
-            .as_ref()
-            .and_then(|p| map_term(p, 3, &t.labelled_points, &t.point_labels)),
-    );
-    let map_lines = take(
-        pred.lines
-            .as_ref()
-            .and_then(|l| map_term(l, 6, &t.labelled_lines, &t.line_labels)),
-    );
-    let reliability_points = take(
-        pred.points
-            .as_ref()
-            .and_then(|p| reliability_term(p.clone().narrow(1, 3, 1), &t.point_validity, beta)),
-    );
-    let reliability_lines = take(
-        pred.lines
-            .as_ref()
-            .and_then(|l| reliability_term(l.clone().narrow(1, 6, 1), &t.line_validity, beta)),
-    );
+    let masks = t.masks.as_ref();
+    let map_points = take(pred.points.as_ref().and_then(|p| match masks {
+        None => map_term(p, 3, &t.labelled_points, &t.point_labels),
+        Some(mk) => masked_map_term(
+            p,
+            3,
+            t.labelled_points.len,
+            &mk.labelled_points,
+            &mk.point_labels,
+        ),
+    }));
+    let map_lines = take(pred.lines.as_ref().and_then(|l| match masks {
+        None => map_term(l, 6, &t.labelled_lines, &t.line_labels),
+        Some(mk) => masked_map_term(
+            l,
+            6,
+            t.labelled_lines.len,
+            &mk.labelled_lines,
+            &mk.line_labels,
+        ),
+    }));
+    let reliability_points = take(pred.points.as_ref().and_then(|p| {
+        reliability_term(
+            p.clone().narrow(1, 3, 1),
+            &t.point_validity,
+            masks.map(|mk| (t.num_points, &mk.real_points)),
+            beta,
+        )
+    }));
+    let reliability_lines = take(pred.lines.as_ref().and_then(|l| {
+        reliability_term(
+            l.clone().narrow(1, 6, 1),
+            &t.line_validity,
+            masks.map(|mk| (t.num_lines, &mk.real_lines)),
+            beta,
+        )
+    }));
 
     let tau = cfg.tau(progress);
     let active = cfg.reprojection_active(progress);

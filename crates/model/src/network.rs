@@ -1,9 +1,11 @@
 //! The PL2Map network: line encoder -> attentional graph -> point and line heads.
 
+use crate::attention::KeyMask;
+use crate::buckets::BucketLimits;
 use crate::config::ModelConfig;
 use crate::dropout::Dropout;
 use crate::error::ModelError;
-use crate::graph::GraphNetwork;
+use crate::graph::{GraphNetwork, StreamMasks};
 use crate::heads::Mlp;
 use crate::init::{Initializer, tensor_from};
 use crate::line_encoder::LineEncoder;
@@ -88,6 +90,9 @@ pub struct NetworkInput<B: Backend> {
     pub points: Option<Tensor<B, 2>>,
     /// [M, T, D]
     pub lines: Option<Tensor<B, 3>>,
+    /// For an image padded to a shape bucket (`buckets.rs`): its real (N, M), the first
+    /// rows of each stream; the rest are zero rows that attention ignores. None: all real.
+    pub real: Option<(usize, usize)>,
 }
 
 impl<B: Backend> NetworkInput<B> {
@@ -96,6 +101,19 @@ impl<B: Backend> NetworkInput<B> {
         config: &ModelConfig,
         points: &[f32],
         lines: &[f32],
+        device: &B::Device,
+    ) -> Result<Self, ModelError> {
+        Self::from_host_padded(config, points, lines, None, device)
+    }
+
+    /// [`NetworkInput::from_host`] with each stream padded by zero rows (lines: zero
+    /// tokens) up to `padded` = (N, M) rows where given (sizes below the real ones are
+    /// refused). An image without lines keeps no line stream when M is 0.
+    pub fn from_host_padded(
+        config: &ModelConfig,
+        points: &[f32],
+        lines: &[f32],
+        padded: Option<(usize, usize)>,
         device: &B::Device,
     ) -> Result<Self, ModelError> {
         let d = config.descriptor_dim;
@@ -116,16 +134,31 @@ impl<B: Backend> NetworkInput<B> {
         }
         let n = points.len() / d;
         let m = lines.len() / (t * d);
+        let (rows_n, rows_m) = padded.unwrap_or((n, m));
+        if rows_n < n || rows_m < m {
+            return Err(ModelError::InvalidConfig(format!(
+                "cannot pad {n} points and {m} lines to {rows_n} and {rows_m}"
+            )));
+        }
         let scale = config.point_input_scale as f32;
-        let points: Vec<f32> = if scale == 1.0 {
+        let mut points: Vec<f32> = if scale == 1.0 {
             points.to_vec()
         } else {
             points.iter().map(|v| v * scale).collect()
         };
+        points.resize(rows_n * d, 0.0);
+        let mut lines = lines.to_vec();
+        lines.resize(rows_m * t * d, 0.0);
         Ok(NetworkInput {
-            points: (n > 0).then(|| tensor_from(points, [n, d], device)),
-            lines: (m > 0).then(|| tensor_from(lines.to_vec(), [m, t, d], device)),
+            points: (rows_n > 0).then(|| tensor_from(points, [rows_n, d], device)),
+            lines: (rows_m > 0).then(|| tensor_from(lines, [rows_m, t, d], device)),
+            real: ((rows_n, rows_m) != (n, m)).then_some((n, m)),
         })
+    }
+
+    /// The real (N, M) of the image: all rows unless padded.
+    pub fn real_sizes(&self) -> (usize, usize) {
+        self.real.unwrap_or((self.num_points(), self.num_lines()))
     }
 
     pub fn num_points(&self) -> usize {
@@ -137,7 +170,8 @@ impl<B: Backend> NetworkInput<B> {
     }
 }
 
-/// Raw network outputs of one image.
+/// Raw network outputs of one image (of a padded image: its padded rows too, after the
+/// real ones; the loss masks them and [`Pl2Map::predict_bucketed`] drops them).
 #[derive(Clone, Debug)]
 pub struct Prediction<B: Backend> {
     /// [N, 4]: x, y, z, u.
@@ -233,6 +267,17 @@ pub struct HostPrediction {
     pub lines: Vec<LinePrediction>,
 }
 
+/// The passes [`Pl2Map::forward_batch`] makes for images of (N, M) rows `sizes`, as
+/// (images, N, M) each: one stacked pass when all are equal, else one per image. On a
+/// JIT engine each distinct triple is a new set of kernels (`buckets.rs`).
+pub fn pass_shapes(sizes: &[(usize, usize)]) -> Vec<(usize, usize, usize)> {
+    let uniform = sizes.windows(2).all(|w| w[0] == w[1]);
+    match sizes.first() {
+        Some(&(n, m)) if uniform => vec![(sizes.len(), n, m)],
+        _ => sizes.iter().map(|&(n, m)| (1, n, m)).collect(),
+    }
+}
+
 impl<B: Pl2MapBackend> Pl2Map<B> {
     pub fn parameter_counts(&self) -> ParameterCounts {
         ParameterCounts {
@@ -247,19 +292,39 @@ impl<B: Pl2MapBackend> Pl2Map<B> {
     /// An image without lines (or without points) runs the other stream alone; cross
     /// layers then pass it the message of an empty edge set.
     pub fn forward(&self, input: NetworkInput<B>, dropout: &mut Dropout) -> Prediction<B> {
-        self.forward_grouped(input, 1, dropout)
+        let real = [input.real_sizes()];
+        self.forward_grouped(input, &real, dropout)
     }
 
-    /// The forward pass over `groups` equal-sized images stacked row-wise (see
-    /// [`Pl2Map::forward_batch`]); the outputs stay stacked.
+    /// The forward pass over `real.len()` equal-sized images stacked row-wise (see
+    /// [`Pl2Map::forward_batch`]), of which `real` holds the real (N, M) of each; the
+    /// outputs stay stacked.
     fn forward_grouped(
         &self,
         input: NetworkInput<B>,
-        groups: usize,
+        real: &[(usize, usize)],
         dropout: &mut Dropout,
     ) -> Prediction<B> {
+        let groups = real.len();
         let n = input.num_points();
         let m = input.num_lines();
+        let device = input
+            .points
+            .as_ref()
+            .map(|p| p.device())
+            .or_else(|| input.lines.as_ref().map(|l| l.device()));
+        let masks = match device {
+            Some(device) => {
+                let counts = |f: fn(&(usize, usize)) -> usize| -> Vec<usize> {
+                    real.iter().map(f).collect()
+                };
+                StreamMasks {
+                    points: KeyMask::from_counts(&counts(|r| r.0), n / groups, &device),
+                    lines: KeyMask::from_counts(&counts(|r| r.1), m / groups, &device),
+                }
+            }
+            None => StreamMasks::none(),
+        };
         let lines = input.lines.map(|l| self.line_encoder.forward(l, dropout));
         let x = match (input.points, lines) {
             (Some(p), Some(l)) => Some(Tensor::cat(vec![p, l], 0)),
@@ -275,7 +340,7 @@ impl<B: Pl2MapBackend> Pl2Map<B> {
                 reliability_beta: beta,
             };
         };
-        let x = self.graph.forward_grouped(x, n, m, groups);
+        let x = self.graph.forward_grouped(x, n, m, groups, &masks);
         let points = (n > 0).then(|| self.point_head.forward(x.clone().narrow(0, 0, n)));
         let lines = (m > 0).then(|| self.line_head.forward(x.narrow(0, n, m)));
         Prediction {
@@ -301,14 +366,14 @@ impl<B: Pl2MapBackend> Pl2Map<B> {
             .iter()
             .map(|i| (i.num_points(), i.num_lines()))
             .collect();
-        let uniform = sizes.windows(2).all(|w| w[0] == w[1]);
-        if g <= 1 || !uniform {
+        if g <= 1 || pass_shapes(&sizes).len() > 1 {
             return inputs
                 .into_iter()
                 .map(|i| self.forward(i, dropout))
                 .collect();
         }
         let (n, m) = sizes[0];
+        let real: Vec<(usize, usize)> = inputs.iter().map(|i| i.real_sizes()).collect();
         let mut points = Vec::with_capacity(g);
         let mut lines = Vec::with_capacity(g);
         for i in inputs {
@@ -318,8 +383,9 @@ impl<B: Pl2MapBackend> Pl2Map<B> {
         let stacked = NetworkInput {
             points: (n > 0).then(|| Tensor::cat(points, 0)),
             lines: (m > 0).then(|| Tensor::cat(lines, 0)),
+            real: None,
         };
-        let out = self.forward_grouped(stacked, g, dropout);
+        let out = self.forward_grouped(stacked, &real, dropout);
         (0..g)
             .map(|k| Prediction {
                 points: out.points.clone().map(|p| p.narrow(0, k * n, n)),
@@ -335,22 +401,48 @@ impl<B: Pl2MapBackend> Pl2Map<B> {
         point_descriptors: &[f32],
         line_descriptors: &[f32],
     ) -> Result<HostPrediction, ModelError> {
+        self.predict_bucketed(point_descriptors, line_descriptors, None)
+    }
+
+    /// [`Pl2Map::predict`] with the image padded to the shape buckets of `buckets`
+    /// where given (a JIT engine's query path, `buckets.rs`); the padded rows' outputs
+    /// are dropped, so the result is the unpadded one up to float rounding.
+    pub fn predict_bucketed(
+        &self,
+        point_descriptors: &[f32],
+        line_descriptors: &[f32],
+        buckets: Option<BucketLimits>,
+    ) -> Result<HostPrediction, ModelError> {
         let device = self.devices().into_iter().next();
         let Some(device) = device else {
             return Err(ModelError::InvalidConfig(
                 "network has no parameters".into(),
             ));
         };
-        let input =
-            NetworkInput::from_host(&self.config, point_descriptors, line_descriptors, &device)?;
-        Ok(self.forward(input, &mut Dropout::off()).to_host())
+        let d = self.config.descriptor_dim;
+        let rows = (
+            point_descriptors.len() / d,
+            line_descriptors.len() / (d * self.config.line_tokens),
+        );
+        let padded = buckets.map(|b| b.padded(&[rows]));
+        let input = NetworkInput::from_host_padded(
+            &self.config,
+            point_descriptors,
+            line_descriptors,
+            padded,
+            &device,
+        )?;
+        let mut out = self.forward(input, &mut Dropout::off()).to_host();
+        out.points.truncate(rows.0);
+        out.lines.truncate(rows.1);
+        Ok(out)
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::testing::{B, assert_close, pseudo, tiny_config, tiny_sample, values};
+    use crate::testing::{B, assert_close, flat, pseudo, tiny_config, tiny_sample, values};
 
     #[test]
     fn reference_parameter_count_at_d256() {
@@ -510,6 +602,72 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// Images padded to a shape bucket (`buckets.rs`) give their real rows the outputs
+    /// of the unpadded images: with and without attention layers, with and without
+    /// lines, several images of different real sizes stacked in one padded pass (also
+    /// an image with no real points or no real lines among images that have them).
+    #[test]
+    fn padded_images_give_their_unpadded_outputs() {
+        let device = Default::default();
+        let limits = BucketLimits {
+            points: 12,
+            lines: 6,
+        };
+        for layers in [tiny_config().layers, Vec::new()] {
+            let cfg = ModelConfig {
+                layers,
+                ..tiny_config()
+            };
+            let net = cfg.init::<B>(3, &device).unwrap();
+            let (d, t) = (cfg.descriptor_dim, cfg.line_tokens);
+            for sizes in [
+                vec![(5, 3), (2, 1), (7, 0)],
+                vec![(4, 0), (3, 0)],
+                vec![(0, 2), (0, 1)],
+                vec![(9, 4)],
+                vec![(12, 6), (11, 6)],
+                vec![(0, 3), (5, 0)],
+            ] {
+                let host: Vec<(Vec<f32>, Vec<f32>)> = sizes
+                    .iter()
+                    .enumerate()
+                    .map(|(k, &(n, m))| {
+                        (
+                            pseudo(n * d, 30 + k as u32),
+                            pseudo(m * t * d, 40 + k as u32),
+                        )
+                    })
+                    .collect();
+                let padded = limits.padded(&sizes);
+                let inputs = host
+                    .iter()
+                    .map(|(p, l)| {
+                        NetworkInput::<B>::from_host_padded(&cfg, p, l, Some(padded), &device)
+                            .unwrap()
+                    })
+                    .collect();
+                let batch = net.forward_batch(inputs, &mut Dropout::off());
+                for ((p, l), got) in host.iter().zip(&batch) {
+                    let input = NetworkInput::<B>::from_host(&cfg, p, l, &device).unwrap();
+                    let want = net.forward(input, &mut Dropout::off()).to_host();
+                    let mut got = got.to_host();
+                    assert_eq!((got.points.len(), got.lines.len()), padded, "{sizes:?}");
+                    got.points.truncate(want.points.len());
+                    got.lines.truncate(want.lines.len());
+                    assert_close(&flat(&got), &flat(&want), 1e-5);
+                    let bucketed = net.predict_bucketed(p, l, Some(limits)).unwrap();
+                    assert_close(&flat(&bucketed), &flat(&want), 1e-5);
+                    assert_eq!(bucketed.points.len(), want.points.len());
+                    assert_eq!(bucketed.lines.len(), want.lines.len());
+                }
+            }
+        }
+        // Padding below the real size is refused.
+        let cfg = tiny_config();
+        let p = pseudo(3 * cfg.descriptor_dim, 1);
+        assert!(NetworkInput::<B>::from_host_padded(&cfg, &p, &[], Some((2, 0)), &device).is_err());
     }
 
     #[test]

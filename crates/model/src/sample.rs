@@ -148,17 +148,32 @@ impl Sample {
         config: &ModelConfig,
         device: &B::Device,
     ) -> Result<SampleTensors<B>, ModelError> {
+        self.to_tensors_padded(config, None, device)
+    }
+
+    /// [`Sample::to_tensors`] padded to `padded` = (N, M) rows where given (a shape
+    /// bucket, `buckets.rs`): zero descriptors, zero keypoints and zero-length segments,
+    /// invalid labels; the targets then hold masks ([`TargetMasks`]) instead of index
+    /// lists, so every tensor of the step has a bucket's shape.
+    pub fn to_tensors_padded<B: Backend>(
+        &self,
+        config: &ModelConfig,
+        padded: Option<(usize, usize)>,
+        device: &B::Device,
+    ) -> Result<SampleTensors<B>, ModelError> {
         self.validate(config)?;
-        let input = NetworkInput::from_host(
+        let input = NetworkInput::from_host_padded(
             config,
             &self.point_descriptors,
             &self.line_descriptors,
+            padded,
             device,
         )?;
-        Ok(SampleTensors {
-            input,
-            targets: Targets::from_sample(self, device),
-        })
+        let targets = match padded {
+            None => Targets::from_sample(self, device),
+            Some(rows) => Targets::from_sample_padded(self, rows, device),
+        };
+        Ok(SampleTensors { input, targets })
     }
 }
 
@@ -170,6 +185,11 @@ pub struct Subset<B: Backend> {
 }
 
 impl<B: Backend> Subset<B> {
+    /// A subset known by its size only (padded targets use masks instead of indices).
+    fn counted(len: usize) -> Self {
+        Subset { indices: None, len }
+    }
+
     fn new(indices: Vec<i64>, device: &B::Device) -> Self {
         let len = indices.len();
         Subset {
@@ -186,9 +206,13 @@ impl<B: Backend> Subset<B> {
     }
 }
 
-/// The loss targets of one image as tensors.
+/// The loss targets of one image as tensors. For an image padded to a shape bucket the
+/// subsets carry their sizes only (no indices), the per-row tensors have the padded
+/// rows (validity 0, zero keypoints and line equations) and `masks` says which rows
+/// each term takes.
 #[derive(Clone, Debug)]
 pub struct Targets<B: Backend> {
+    /// Real points and lines (padding excluded).
     pub num_points: usize,
     pub num_lines: usize,
     /// Labelled points (v = 1) and their labels [K, 3].
@@ -214,6 +238,25 @@ pub struct Targets<B: Backend> {
     /// [fx, fy] and [cx, cy], both [1, 2].
     pub focal: Tensor<B, 2>,
     pub principal: Tensor<B, 2>,
+    /// Padded targets only.
+    pub masks: Option<TargetMasks<B>>,
+}
+
+/// The row masks of a padded image's targets: 1 where a row belongs to the set, else 0,
+/// each [rows, 1]; the labels of every row (zero where invalid or padded).
+#[derive(Clone, Debug)]
+pub struct TargetMasks<B: Backend> {
+    pub real_points: Option<Tensor<B, 2>>,
+    pub labelled_points: Option<Tensor<B, 2>>,
+    pub unlabelled_points: Option<Tensor<B, 2>>,
+    /// [N, 3]
+    pub point_labels: Option<Tensor<B, 2>>,
+    pub real_lines: Option<Tensor<B, 2>>,
+    pub labelled_lines: Option<Tensor<B, 2>>,
+    /// [M, 6]
+    pub line_labels: Option<Tensor<B, 2>>,
+    pub reprojectable_labelled_lines: Option<Tensor<B, 2>>,
+    pub reprojectable_unlabelled_lines: Option<Tensor<B, 2>>,
 }
 
 /// The normalised equation of the line through a segment, or None for a degenerate one.
@@ -278,11 +321,7 @@ impl<B: Backend> Targets<B> {
             6,
         );
         let validity = |v: &[bool]| v.iter().map(|&b| if b { 1.0 } else { 0.0 }).collect();
-        let r = &s.rotation;
-        let rt: Vec<f32> = (0..3)
-            .flat_map(|i| (0..3).map(move |j| r[j][i] as f32))
-            .collect();
-        let c = &s.camera;
+        let (rotation_t, translation, focal, principal) = camera_tensors(s, device);
         Targets {
             num_points: n,
             num_lines: m,
@@ -304,16 +343,126 @@ impl<B: Backend> Targets<B> {
                 m,
                 3,
             ),
-            rotation_t: tensor_from(rt, [3, 3], device),
-            translation: tensor_from(
-                s.translation.iter().map(|&v| v as f32).collect(),
-                [1, 3],
-                device,
-            ),
-            focal: tensor_from(vec![c.fx as f32, c.fy as f32], [1, 2], device),
-            principal: tensor_from(vec![c.cx as f32, c.cy as f32], [1, 2], device),
+            rotation_t,
+            translation,
+            focal,
+            principal,
+            masks: None,
         }
     }
+
+    /// The targets of `s` padded to `(rows_n, rows_m)` rows (at least its own).
+    fn from_sample_padded(
+        s: &Sample,
+        (rows_n, rows_m): (usize, usize),
+        device: &B::Device,
+    ) -> Self {
+        let n = s.num_points();
+        let m = s.num_lines();
+        let column = |rows: usize, f: &dyn Fn(usize) -> bool| -> Option<Tensor<B, 2>> {
+            (rows > 0).then(|| {
+                let v = (0..rows).map(|i| if f(i) { 1.0 } else { 0.0 }).collect();
+                tensor_from::<B, 2>(v, [rows, 1], device)
+            })
+        };
+        let wide = |rows: usize, w: usize, values: Vec<f32>| -> Option<Tensor<B, 2>> {
+            (rows > 0).then(|| {
+                let mut values = values;
+                values.resize(rows * w, 0.0);
+                tensor_from::<B, 2>(values, [rows, w], device)
+            })
+        };
+        let point_valid = |i: usize| i < n && s.point_valid[i];
+        let line_valid = |j: usize| j < m && s.line_valid[j];
+        let equations: Vec<Option<[f32; 3]>> = s.segments.iter().map(line_equation).collect();
+        let reprojectable = |j: usize| j < m && equations[j].is_some();
+        let count = |rows: usize, f: &dyn Fn(usize) -> bool| (0..rows).filter(|&i| f(i)).count();
+        let labelled_points = count(n, &point_valid);
+        let labelled_lines = count(m, &line_valid);
+        let masks = TargetMasks {
+            real_points: column(rows_n, &|i| i < n),
+            labelled_points: column(rows_n, &point_valid),
+            unlabelled_points: column(rows_n, &|i| i < n && !s.point_valid[i]),
+            point_labels: wide(
+                rows_n,
+                3,
+                s.point_labels
+                    .iter()
+                    .zip(&s.point_valid)
+                    .flat_map(|(l, v)| if *v { *l } else { [0.0; 3] })
+                    .collect(),
+            ),
+            real_lines: column(rows_m, &|j| j < m),
+            labelled_lines: column(rows_m, &line_valid),
+            line_labels: wide(
+                rows_m,
+                6,
+                s.line_labels
+                    .iter()
+                    .zip(&s.line_valid)
+                    .flat_map(|(l, v)| if *v { *l } else { [0.0; 6] })
+                    .collect(),
+            ),
+            reprojectable_labelled_lines: column(rows_m, &|j| reprojectable(j) && s.line_valid[j]),
+            reprojectable_unlabelled_lines: column(rows_m, &|j| {
+                reprojectable(j) && !s.line_valid[j]
+            }),
+        };
+        let validity = |v: &[bool]| v.iter().map(|&b| if b { 1.0 } else { 0.0 }).collect();
+        let (rotation_t, translation, focal, principal) = camera_tensors(s, device);
+        Targets {
+            num_points: n,
+            num_lines: m,
+            labelled_points: Subset::counted(labelled_points),
+            point_labels: None,
+            unlabelled_points: Subset::counted(n - labelled_points),
+            point_validity: wide(rows_n, 1, validity(&s.point_valid)),
+            keypoints: wide(rows_n, 2, s.keypoints.iter().flatten().copied().collect()),
+            labelled_lines: Subset::counted(labelled_lines),
+            line_labels: None,
+            reprojectable_labelled_lines: Subset::counted(count(m, &|j| {
+                reprojectable(j) && s.line_valid[j]
+            })),
+            reprojectable_unlabelled_lines: Subset::counted(count(m, &|j| {
+                reprojectable(j) && !s.line_valid[j]
+            })),
+            line_validity: wide(rows_m, 1, validity(&s.line_valid)),
+            line_equations: wide(
+                rows_m,
+                3,
+                equations
+                    .iter()
+                    .flat_map(|e| e.unwrap_or([0.0; 3]))
+                    .collect(),
+            ),
+            rotation_t,
+            translation,
+            focal,
+            principal,
+            masks: Some(masks),
+        }
+    }
+}
+
+/// R^T [3, 3], t [1, 3], [fx, fy] and [cx, cy] of a sample ([`Targets`]).
+type CameraTensors<B> = (Tensor<B, 2>, Tensor<B, 2>, Tensor<B, 2>, Tensor<B, 2>);
+
+fn camera_tensors<B: Backend>(s: &Sample, device: &B::Device) -> CameraTensors<B> {
+    let r = &s.rotation;
+    let rt: Vec<f32> = (0..3)
+        .flat_map(|i| (0..3).map(move |j| r[j][i] as f32))
+        .collect();
+    let c = &s.camera;
+    (
+        tensor_from(rt, [3, 3], device),
+        tensor_from(
+            s.translation.iter().map(|&v| v as f32).collect(),
+            [1, 3],
+            device,
+        ),
+        tensor_from(vec![c.fx as f32, c.fy as f32], [1, 2], device),
+        tensor_from(vec![c.cx as f32, c.cy as f32], [1, 2], device),
+    )
 }
 
 /// A sample's network input and loss targets.

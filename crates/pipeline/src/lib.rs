@@ -26,6 +26,6 @@ pub use compare_refine::{RefineComparison, run_compare_refine};
 pub use config::{Pipeline, PipelineFile, WITHOUT_REFINE, WarmStartSection};
 pub use error::{PipelineError, Result};
 pub use lock::{Lock, VerifyReport, verify};
-pub use promotion::{Kept, Promotion};
+pub use promotion::{Kept, PREVIOUS_SCORE_DIR, Promotion};
 pub use run::{RunOptions, RunReport, StageReport, Status, run};
 pub use stages::StageName;

@@ -234,3 +234,97 @@ fn a_new_sequence_retrains_warm_and_the_score_does_not_get_worse() {
         r3.table()
     );
 }
+
+/// The main job's pipeline (pipeline/synthetic.toml) cut to `iterations` training steps,
+/// a capped RANSAC and `[warm_start] iterations = warm`.
+fn room_text(iterations: usize, warm: usize) -> String {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../pipeline/synthetic.toml");
+    let text = std::fs::read_to_string(path).unwrap();
+    assert!(text.contains("\niterations = 12000\n") && text.trim_end().ends_with("[score]"));
+    let text = text.replace(
+        "\niterations = 12000\n",
+        &format!("\niterations = {iterations}\n"),
+    );
+    format!("{text}\nmax_iterations = 2000\n\n[warm_start]\niterations = {warm}\n")
+}
+
+/// The gate on its own, on the synthetic room: night 1 trains 1,500 steps of the main
+/// job's network (median pose error about 0.6 m: not yet under 10 cm, but far from the
+/// room-sized errors of a network that learned nothing). Night 2's labels are damaged: the
+/// SfM labels 50 m off and no depth refinement to bring them back, so the warm-started
+/// model is worse on the same test frames. The gate must keep night 1's model as
+/// `train/model.ckpt`, put the new one beside it as `model.rejected.ckpt`, and say so.
+#[test]
+fn the_gate_keeps_the_previous_model_when_the_new_one_is_worse() {
+    let dir = tempfile::tempdir().unwrap();
+    let good = room_text(1500, 500);
+    let night1 = load(dir.path(), &good);
+    let r1 = run(&night1, &RunOptions::default()).unwrap();
+    print("night 1", r1.score.as_ref().unwrap());
+    let model: PathBuf = night1.stage_dir(StageName::Train).join("model.ckpt");
+    let model1 = std::fs::read(&model).unwrap();
+
+    // The [refine] section, up to the next section.
+    let start = good.find("[refine]\n").unwrap();
+    let end = start + good[start..].find("\n[shard]").unwrap();
+    let damaged = format!("{}{}", &good[..start], &good[end + 1..]);
+    assert!(damaged.contains("label_noise_cm = 5.0\n"));
+    let damaged = damaged.replace("label_noise_cm = 5.0\n", "label_noise_cm = 5000.0\n");
+    let night2 = load(dir.path(), &damaged);
+    let warm = RunOptions {
+        warm_start: Some(model.clone()),
+        ..RunOptions::default()
+    };
+    let r2 = run(&night2, &warm).unwrap();
+    let promotion = r2.promotion.as_ref().expect("a warm start runs the gate");
+    println!("{}\n{}", promotion.table(), promotion.verdict());
+    assert_eq!(
+        promotion.kept,
+        pipeline::Kept::Previous,
+        "{}",
+        promotion.verdict()
+    );
+    assert!(
+        promotion.verdict().starts_with("kept the previous model"),
+        "{}",
+        promotion.verdict()
+    );
+    // Worse by far, not by noise: the first figure the gate compares that differs is the
+    // median position error of points + lines.
+    let median = |s: &Summary| {
+        s.variants
+            .iter()
+            .find(|v| v.variant == score::Variant::PointsLines)
+            .map(|v| v.median_cm)
+            .unwrap()
+    };
+    assert!(
+        median(&promotion.new) > 2.0 * median(&promotion.previous),
+        "new {} cm, previous {} cm",
+        median(&promotion.new),
+        median(&promotion.previous)
+    );
+    let train_dir = night2.stage_dir(StageName::Train);
+    assert_eq!(
+        std::fs::read(&model).unwrap(),
+        model1,
+        "night 1's model stays"
+    );
+    let rejected = std::fs::read(train_dir.join("model.rejected.ckpt")).unwrap();
+    assert_ne!(
+        rejected, model1,
+        "the rejected model is the one night 2 trained"
+    );
+    // Both scores were made on the same test frames and are kept.
+    let previous = Summary::read_json(
+        &night2
+            .work
+            .join(pipeline::PREVIOUS_SCORE_DIR)
+            .join("summary.json"),
+    )
+    .unwrap();
+    assert_eq!(previous.variants.len(), promotion.new.variants.len());
+    for (a, b) in previous.variants.iter().zip(&promotion.new.variants) {
+        assert_eq!(a.frames, b.frames);
+    }
+}

@@ -38,6 +38,54 @@ pub enum LrSchedule {
     Cosine,
 }
 
+/// Whether a run pads its images to shape buckets (`TrainConfig::shape_buckets`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ShapeBuckets {
+    /// On the JIT engine (`cuda[:N]`), off elsewhere.
+    #[default]
+    Auto,
+    On,
+    Off,
+}
+
+impl ShapeBuckets {
+    fn is_auto(&self) -> bool {
+        *self == ShapeBuckets::Auto
+    }
+
+    /// Whether a run on `device` pads.
+    pub fn pads_on(self, device: Device) -> bool {
+        match self {
+            ShapeBuckets::On => true,
+            ShapeBuckets::Off => false,
+            ShapeBuckets::Auto => matches!(device, Device::Cuda(_)),
+        }
+    }
+}
+
+impl std::fmt::Display for ShapeBuckets {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            ShapeBuckets::Auto => "auto",
+            ShapeBuckets::On => "on",
+            ShapeBuckets::Off => "off",
+        })
+    }
+}
+
+impl std::str::FromStr for ShapeBuckets {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "auto" => Ok(ShapeBuckets::Auto),
+            "on" => Ok(ShapeBuckets::On),
+            "off" => Ok(ShapeBuckets::Off),
+            _ => Err(format!("expected auto, on or off, got {s:?}")),
+        }
+    }
+}
+
 /// The train stage's configuration: `[train]` of a pipeline file, `pl2map train
 /// --config FILE` and the flags of `pl2map train` (the top-level settings; the nested
 /// sections come from a file); the only place its settings and defaults live.
@@ -78,6 +126,18 @@ pub struct TrainConfig {
     #[serde(skip_serializing_if = "is_one")]
     #[arg(long, default_value_t = TrainConfig::default().batch_groups)]
     pub batch_groups: usize,
+    /// Pad each step's images to a few fixed sizes (`crates/model/src/buckets.rs`: the
+    /// next size of a short ladder of `limits`; padded rows are masked out of attention
+    /// and of every loss term): `on`, `off`, or `auto`, which pads on the JIT engine
+    /// (`cuda[:N]`, CubeCL, which compiles its kernels for each new tensor shape: without
+    /// buckets nearly every step has new ones) and not on the others (the Flex CPU
+    /// default keeps its speed; LibTorch runs precompiled kernels for any shape). The
+    /// real rows' losses and gradients are the same up to float rounding, but dropout
+    /// masks are drawn for the padded tensors. The predictor pads the same way.
+    // Written only when not auto: records of runs made before it existed hold.
+    #[serde(skip_serializing_if = "ShapeBuckets::is_auto")]
+    #[arg(long, default_value_t = TrainConfig::default().shape_buckets)]
+    pub shape_buckets: ShapeBuckets,
     #[arg(long, default_value_t = TrainConfig::default().learning_rate)]
     /// Adam's learning rate at the start.
     pub learning_rate: f64,
@@ -186,6 +246,7 @@ impl Default for TrainConfig {
             iterations: 10_000,
             batch_frames: 1,
             batch_groups: 1,
+            shape_buckets: ShapeBuckets::Auto,
             learning_rate: 3e-4,
             lr_schedule: LrSchedule::Steps,
             lr_halvings: 7,
@@ -327,6 +388,29 @@ impl TrainConfig {
         }
     }
 
+    /// The bucket limits of a training run on `device` (`shape_buckets`): the
+    /// `limits`, or None when it does not pad.
+    pub fn training_buckets(&self, device: Device) -> Option<model::buckets::BucketLimits> {
+        self.shape_buckets
+            .pads_on(device)
+            .then_some(model::buckets::BucketLimits {
+                points: self.limits.max_keypoints,
+                lines: self.limits.max_lines,
+            })
+    }
+
+    /// The bucket limits of the predictor on `device`: the query's top-K keypoints, and
+    /// no line limit (a query image keeps all its segments, padded to the next power of
+    /// two, `buckets::bucket`); None when it does not pad.
+    pub fn query_buckets(&self, device: Device) -> Option<model::buckets::BucketLimits> {
+        self.shape_buckets
+            .pads_on(device)
+            .then_some(model::buckets::BucketLimits {
+                points: self.query_max_keypoints,
+                lines: 0,
+            })
+    }
+
     /// The configuration as a stage record hashes it: without the settings that change
     /// only the speed of a run (`workers`), so a rerun with more workers is up to date.
     pub fn for_record(&self) -> TrainConfig {
@@ -389,6 +473,30 @@ mod tests {
         assert_eq!(p.loss.weight_reprojection, 0.0);
         assert_eq!(p.loss.tau_max, LossConfig::indoor().tau_max);
         assert!(toml::from_str::<TrainConfig>("iteration = 5").is_err());
+    }
+
+    #[test]
+    fn shape_buckets_default_to_auto_and_are_written_only_when_set() {
+        let c = TrainConfig::default();
+        assert_eq!(c.shape_buckets, ShapeBuckets::Auto);
+        // A file written before the setting existed loads; a default one omits it.
+        assert!(!c.to_toml().contains("shape_buckets"), "{}", c.to_toml());
+        let old: TrainConfig = toml::from_str("iterations = 5\n").unwrap();
+        assert_eq!(old.shape_buckets, ShapeBuckets::Auto);
+        let on = TrainConfig::from_toml_str("[train]\nshape_buckets = \"on\"\n").unwrap();
+        assert_eq!(on.shape_buckets, ShapeBuckets::On);
+        assert!(on.to_toml().contains("shape_buckets = \"on\""));
+        assert!(TrainConfig::from_toml_str("shape_buckets = \"maybe\"").is_err());
+        // auto: the JIT engine pads, the Flex CPU default and LibTorch do not.
+        assert!(ShapeBuckets::Auto.pads_on(Device::Cuda(0)));
+        assert!(!ShapeBuckets::Auto.pads_on(Device::Cpu));
+        assert!(!ShapeBuckets::Auto.pads_on(Device::LibTorchCuda(0)));
+        assert!(ShapeBuckets::On.pads_on(Device::Cpu));
+        assert!(!ShapeBuckets::Off.pads_on(Device::Cuda(1)));
+        let limits = on.training_buckets(Device::Cpu).unwrap();
+        assert_eq!((limits.points, limits.lines), (1024, 128));
+        assert_eq!(c.training_buckets(Device::Cpu), None);
+        assert_eq!(c.query_buckets(Device::Cuda(0)).unwrap().points, 2048);
     }
 
     #[test]

@@ -43,7 +43,15 @@ pub struct DescriptorCache {
     inner: RwLock<CacheInner>,
     budget_bytes: usize,
     spill: Option<SpillFile>,
+    /// With [`DescriptorCache::hold_records`]: every frame's record seen by
+    /// [`DescriptorCache::prefill`], without its image.
+    records: Option<HeldRecords>,
 }
+
+/// Frames' records without their images (`image_bytes` empty), by frame id: what an
+/// unaugmented sample of a described frame needs from its shard
+/// (`FrameStream::start_with_records`).
+pub type HeldRecords = HashMap<u64, FrameRecord>;
 
 #[derive(Debug, Default)]
 struct CacheInner {
@@ -83,6 +91,44 @@ impl DescriptorCache {
         self.spill.as_ref().map_or(0, SpillFile::len)
     }
 
+    /// Makes the next [`DescriptorCache::prefill`] keep every frame's record without its
+    /// image ([`DescriptorCache::take_records`]). Why: past the shard reader's chunk
+    /// cache, reading a sampled frame's labels decompresses the whole chunk around it,
+    /// images included; at 2,000 training frames that cost the reader thread about
+    /// 30 ms of CPU a step, taken from the step's two threads (the step went from 0.041
+    /// to 0.073 s with no data wait; docs/performance.md, "A real scene's size"). The
+    /// records cost about 80 KB a frame of the synthetic room (1,250 keypoints).
+    pub fn hold_records(&mut self) {
+        self.records = Some(HashMap::new());
+    }
+
+    /// The records kept by the last prefill (frames whose unaugmented samples need no
+    /// image), when every one of them is described (in memory or in the spill file):
+    /// otherwise a sample may need an image, and None. Frames not held are read from
+    /// their shards as before.
+    pub fn take_records(&mut self) -> Option<HeldRecords> {
+        let records = self.records.take()?;
+        let described =
+            |id: &u64| self.contains(*id) || self.spill.as_ref().is_some_and(|s| s.contains(*id));
+        records.keys().all(described).then_some(records)
+    }
+
+    /// Keeps the frame's record without its image, if its samples never need the image.
+    fn hold(&mut self, frame: &FrameRecord) {
+        let Some(records) = &mut self.records else {
+            return;
+        };
+        if crate::sample::unaugmented_needs_no_image(frame) {
+            records.insert(
+                frame.frame_id,
+                FrameRecord {
+                    image_bytes: Default::default(),
+                    ..frame.clone()
+                },
+            );
+        }
+    }
+
     /// The spill file, taken out (to remove it once a run has finished).
     pub fn take_spill(&mut self) -> Option<SpillFile> {
         self.spill.take()
@@ -111,6 +157,7 @@ impl DescriptorCache {
         let mut first_past = None;
         for (k, frame) in frames.by_ref() {
             let frame = frame?;
+            self.hold(&frame);
             if self.contains(frame.frame_id) {
                 bar.inc(1);
                 continue;
@@ -140,12 +187,19 @@ impl DescriptorCache {
         {
             bar.inc((order.len() - k) as u64);
             self.spill = Some(s);
+            if self.records.is_some() {
+                for (_, frame) in frames {
+                    self.hold(&frame?);
+                }
+            }
             return Ok(());
         }
         let mut writer = SpillWriter::create(target.path, &target.key, dim, t)?;
         let mut batch = vec![frame];
         for (_, frame) in frames {
-            batch.push(frame?);
+            let frame = frame?;
+            self.hold(&frame);
+            batch.push(frame);
             if batch.len() == chunk {
                 spill_batch(&mut writer, std::mem::take(&mut batch), fe, bar)?;
             }
@@ -445,5 +499,100 @@ mod tests {
         );
         other.take_spill().unwrap().remove().unwrap();
         assert!(!path.exists());
+    }
+
+    /// Held records are the shards' records without their images, for every frame whose
+    /// samples need no image, whether the frame is described in memory, into the spill
+    /// file, or found in a spill file of an earlier run; their samples are the shard
+    /// records' samples.
+    #[test]
+    fn held_records_give_the_shards_samples_without_images() {
+        let dir = tempfile::tempdir().unwrap();
+        // Positions on a 1/8 px grid go through the identity transform exactly (other
+        // values may not: the transform recentres on the principal point and back), so
+        // these frames' unaugmented samples need no image; frame 5 keeps its unrounded
+        // positions.
+        let on_grid = |v: f64| (v * 8.0).round() / 8.0;
+        let frames: Vec<FrameRecord> = (0..6)
+            .map(|id| {
+                let mut f = frame(id, 40, 6, 0.0);
+                if id != 5 {
+                    f.keypoints
+                        .iter_mut()
+                        .flatten()
+                        .for_each(|v| *v = on_grid(*v));
+                    f.segments
+                        .iter_mut()
+                        .flatten()
+                        .for_each(|v| *v = on_grid(*v));
+                }
+                f
+            })
+            .collect();
+        let paths: Vec<std::path::PathBuf> = frames
+            .chunks(3)
+            .enumerate()
+            .map(|(s, chunk)| {
+                let path = dir.path().join(format!("train-{s:05}.mcap"));
+                shards::write_shard(&path, chunk, &shards::ShardConfig::default()).unwrap();
+                path
+            })
+            .collect();
+        let fe = front_end();
+        let limits = Limits {
+            max_keypoints: 7,
+            max_lines: 2,
+        };
+        let one = 4 * features::SIFT_DIM * rows(&frame(0, 40, 6, 0.0), &fe);
+        let path = dir.path().join("descriptors.spill");
+        let bar = indicatif::ProgressBar::hidden();
+        let from_shards: Vec<FrameRecord> = shards::ShardReader::open(&paths)
+            .unwrap()
+            .map(Result::unwrap)
+            .collect();
+        // Written, then reused by a second run.
+        for run in 0..2 {
+            let mut cache = DescriptorCache::with_budget_bytes(one + one / 2);
+            cache.hold_records();
+            let target = SpillTarget {
+                path: &path,
+                key: [7; 32],
+            };
+            cache.prefill(&paths, &fe, &bar, Some(target)).unwrap();
+            assert!(cache.spilled() >= 1, "run {run}");
+            let records = cache.take_records().expect("every frame is described");
+            let needs_none: Vec<u64> = from_shards
+                .iter()
+                .filter(|f| crate::sample::unaugmented_needs_no_image(f))
+                .map(|f| f.frame_id)
+                .collect();
+            assert_eq!(needs_none, [0, 1, 2, 3, 4], "run {run}");
+            assert_eq!(records.len(), needs_none.len(), "run {run}");
+            for f in &from_shards {
+                let Some(held) = records.get(&f.frame_id) else {
+                    continue;
+                };
+                assert!(held.image_bytes.is_empty());
+                let mut same = f.clone();
+                same.image_bytes = Default::default();
+                // (Compared as text: unlabelled points hold NaN, which is not equal to itself.)
+                assert_eq!(format!("{held:?}"), format!("{same:?}"));
+                for seed in 0..3 {
+                    let mut r1 = seeds::rng(seed, Purpose::Sample, f.frame_id);
+                    let mut r2 = seeds::rng(seed, Purpose::Sample, f.frame_id);
+                    let from_shard =
+                        prepare_with_cache(f, &fe, None, &limits, &mut r1, Some(&cache)).unwrap();
+                    let from_memory =
+                        prepare_with_cache(held, &fe, None, &limits, &mut r2, Some(&cache))
+                            .unwrap();
+                    assert_eq!(from_shard.sample, from_memory.sample);
+                }
+            }
+        }
+        // Without a spill target the frames past the budget are not described: no records.
+        let mut small = DescriptorCache::with_budget_bytes(one + one / 2);
+        small.hold_records();
+        small.prefill(&paths, &fe, &bar, None).unwrap();
+        assert!(small.take_records().is_none());
     }
 }

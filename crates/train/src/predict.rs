@@ -27,6 +27,7 @@ use crate::error::TrainError;
 use features::{FrontEnd, ImageFeatures};
 use geometry::Camera;
 use image::GrayImage;
+use model::buckets::BucketLimits;
 use model::{CpuBackend, Device, HostPrediction, Pl2Map};
 use std::path::Path;
 use std::sync::Arc;
@@ -64,13 +65,19 @@ enum Network {
 }
 
 impl Network {
-    fn predict(&self, points: &[f32], lines: &[f32]) -> Result<HostPrediction, TrainError> {
+    /// `buckets`: pad the image to shape buckets (crates/model/src/buckets.rs).
+    fn predict(
+        &self,
+        points: &[f32],
+        lines: &[f32],
+        buckets: Option<BucketLimits>,
+    ) -> Result<HostPrediction, TrainError> {
         Ok(match self {
-            Network::Cpu(n) => n.predict(points, lines)?,
+            Network::Cpu(n) => n.predict_bucketed(points, lines, buckets)?,
             #[cfg(feature = "cuda")]
-            Network::Cuda(n) => n.predict(points, lines)?,
+            Network::Cuda(n) => n.predict_bucketed(points, lines, buckets)?,
             #[cfg(feature = "tch")]
-            Network::LibTorch(n) => n.predict(points, lines)?,
+            Network::LibTorch(n) => n.predict_bucketed(points, lines, buckets)?,
         })
     }
 }
@@ -81,6 +88,9 @@ pub struct Predictor {
     front_end: Arc<dyn FrontEnd>,
     /// Added to every predicted coordinate (the training's `scene_centre`).
     centre: [f64; 3],
+    /// Shape buckets of the query path (`TrainConfig::shape_buckets`: on a JIT engine
+    /// each new (N, M) would compile new kernels).
+    buckets: Option<BucketLimits>,
 }
 
 impl Predictor {
@@ -132,6 +142,7 @@ impl Predictor {
         let front_end = query_front_end_on(&config, device)?;
         Ok(Predictor {
             network,
+            buckets: config.query_buckets(device),
             config,
             front_end,
             centre: [0.0; 3],
@@ -194,7 +205,9 @@ impl Predictor {
 
     /// The network on front-end output computed elsewhere (same configuration).
     pub fn predict_features(&self, f: &ImageFeatures) -> Result<ImagePrediction, TrainError> {
-        let out = self.network.predict(&f.descriptors, &f.line_descriptors)?;
+        let out = self
+            .network
+            .predict(&f.descriptors, &f.line_descriptors, self.buckets)?;
         let c = self.centre;
         let d3 = |v: [f32; 3]| [v[0] as f64 + c[0], v[1] as f64 + c[1], v[2] as f64 + c[2]];
         Ok(ImagePrediction {
@@ -313,6 +326,49 @@ mod tests {
         // Describing the given positions is the detection path without the detection.
         let at = p.predict_at(&gray, &g.keypoints, &g.segments).unwrap();
         assert_eq!(at, pred);
+    }
+
+    /// With shape buckets on (a JIT engine's query path) the detections are padded to a
+    /// bucket and the padded rows dropped: the same predictions up to float rounding.
+    #[test]
+    fn shape_buckets_leave_predictions_as_they_are() {
+        let cfg = config();
+        let net = cfg
+            .model
+            .init::<CpuBackend>(4, &Default::default())
+            .unwrap();
+        let on = TrainConfig {
+            shape_buckets: crate::config::ShapeBuckets::On,
+            ..cfg.clone()
+        };
+        let plain = Predictor::from_parts(net.clone(), cfg).unwrap();
+        let padded = Predictor::from_parts(net, on).unwrap();
+        assert!(plain.buckets.is_none() && padded.buckets.is_some());
+        let gray = decode_gray(&frame(9, 30, 4, 0.0)).unwrap();
+        let a = plain.predict(&gray, &camera()).unwrap();
+        let b = padded.predict(&gray, &camera()).unwrap();
+        assert_eq!(
+            (a.points.len(), a.lines.len()),
+            (b.points.len(), b.lines.len())
+        );
+        // Not a bucket's size, so padding happened.
+        assert_ne!(
+            model::buckets::bucket(a.points.len(), 50),
+            a.points.len(),
+            "{} keypoints",
+            a.points.len()
+        );
+        for (x, y) in a.points.iter().zip(&b.points) {
+            assert_eq!(x.xy, y.xy);
+            for k in 0..3 {
+                assert!((x.xyz[k] - y.xyz[k]).abs() < 1e-4);
+            }
+            assert!((x.reliability - y.reliability).abs() < 1e-4);
+        }
+        for (x, y) in a.lines.iter().zip(&b.lines) {
+            assert_eq!(x.segment, y.segment);
+            assert!((x.start[0] - y.start[0]).abs() < 1e-4 && (x.end[2] - y.end[2]).abs() < 1e-4);
+        }
     }
 
     #[test]

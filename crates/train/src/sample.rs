@@ -96,6 +96,31 @@ pub fn prepare<R: Rng>(
     prepare_with_cache(frame, front_end, augment, limits, rng, None)
 }
 
+/// Whether every unaugmented sample of `frame` keeps its positions exactly, so that a
+/// described frame's samples never decode its image (the test `unchanged` in
+/// [`prepare_with_cache`] passes for any subset). Not so for a frame with a segment
+/// reaching out of the image: the identity clips it.
+pub(crate) fn unaugmented_needs_no_image(frame: &FrameRecord) -> bool {
+    let Ok(geo) = augment::transform(
+        &frame.camera,
+        &frame.pose,
+        &frame.keypoints,
+        &frame.segments,
+        &AugmentParams::IDENTITY,
+    ) else {
+        return false;
+    };
+    geo.keypoint_index
+        .iter()
+        .zip(&geo.keypoints)
+        .all(|(&i, k)| frame.keypoints[i] == *k)
+        && geo
+            .segment_index
+            .iter()
+            .zip(&geo.segments)
+            .all(|(&j, s)| frame.segments[j] == *s)
+}
+
 /// [`prepare`], taking the descriptors of an unaugmented sample from `cache`.
 pub fn prepare_with_cache<R: Rng>(
     frame: &FrameRecord,

@@ -13,6 +13,7 @@
 //! caller-given preparation function on them (decoding, augmentation, descriptors),
 //! `prefetch` items ahead of the consumer, who gets them back in stream order.
 
+use crate::descriptor_cache::HeldRecords;
 use crate::error::TrainError;
 use crate::seeds::{self, Purpose};
 use rand::Rng;
@@ -122,6 +123,23 @@ impl<T: Send + 'static> FrameStream<T> {
     where
         F: Fn(&StreamPosition, FrameRecord) -> Result<T, TrainError> + Send + Sync + 'static,
     {
+        Self::start_with_records(paths, config, start, None, prepare)
+    }
+
+    /// [`Self::start`], with the records of some frames already in memory: the reader
+    /// hands those out instead of reading them from their shard (a record there may
+    /// lack its image: `descriptor_cache::HeldRecords`; only for a `prepare` that does
+    /// not need it).
+    pub fn start_with_records<F>(
+        paths: &[PathBuf],
+        config: StreamConfig,
+        start: u64,
+        records: Option<Arc<HeldRecords>>,
+        prepare: F,
+    ) -> Result<Self, TrainError>
+    where
+        F: Fn(&StreamPosition, FrameRecord) -> Result<T, TrainError> + Send + Sync + 'static,
+    {
         let options = ReaderOptions {
             cache_bytes: config.chunk_cache_bytes,
             ..Default::default()
@@ -214,7 +232,12 @@ impl<T: Send + 'static> FrameStream<T> {
                         epoch,
                         frame,
                     };
-                    match reader.read_frame(frame.frame_id) {
+                    let held = records.as_ref().and_then(|r| r.get(&frame.frame_id));
+                    let record = match held {
+                        Some(r) => Ok(r.clone()),
+                        None => reader.read_frame(frame.frame_id),
+                    };
+                    match record {
                         Ok(record) => {
                             if job_tx.send((at, record)).is_err() {
                                 return;

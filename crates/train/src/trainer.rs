@@ -170,6 +170,8 @@ pub fn train_on<B: AutodiffBackend<InnerBackend: Pl2MapBackend> + Pl2MapBackend>
     // them one after another (the same weights either way).
     let group_threads = config.device.is_cpu().then(rayon::current_num_threads);
     state.set_batch_groups(config.batch_groups, group_threads)?;
+    // Shape buckets (crates/model/src/buckets.rs): `auto` pads on the JIT engine only.
+    state.set_shape_buckets(config.training_buckets(config.device));
     let spill_path = out.join(SPILL_FILE);
     let mut stream = sample_stream(
         &config,
@@ -514,6 +516,11 @@ fn sample_stream(
             path: spill_path,
             key,
         };
+        // No augmentation: no sample decodes an image, so the reader can hand out the
+        // frames' labels from memory instead of decompressing their chunks.
+        if config.augment.probability == 0.0 {
+            cache.hold_records();
+        }
         cache.prefill(shards, front_end.as_ref(), &bar, Some(target))?;
         bar.finish_and_clear();
         if cache.spilled() > 0 {
@@ -525,22 +532,29 @@ fn sample_stream(
             );
         }
     }
+    let records = cache.take_records().map(Arc::new);
     let cache = Arc::new(cache);
     // Runs on the sample workers: a sample's randomness is its stream position's, so
     // the samples do not depend on which worker prepares them or how many there are.
-    FrameStream::start(shards, stream_cfg, start * batch, move |at, frame| {
-        let mut rng = seeds::rng(seed, Purpose::Sample, at.position);
-        let mut p = prepare_with_cache(
-            &frame,
-            front_end.as_ref(),
-            Some(&aug),
-            &limits,
-            &mut rng,
-            Some(&cache),
-        )?;
-        recentre(&mut p.sample, &centre);
-        Ok(p)
-    })
+    FrameStream::start_with_records(
+        shards,
+        stream_cfg,
+        start * batch,
+        records,
+        move |at, frame| {
+            let mut rng = seeds::rng(seed, Purpose::Sample, at.position);
+            let mut p = prepare_with_cache(
+                &frame,
+                front_end.as_ref(),
+                Some(&aug),
+                &limits,
+                &mut rng,
+                Some(&cache),
+            )?;
+            recentre(&mut p.sample, &centre);
+            Ok(p)
+        },
+    )
 }
 
 /// The key of a spill file: the front-end's configuration and each shard's name, size

@@ -37,6 +37,11 @@ pub struct Args {
     /// Also score the few-hundred-step model on the test shards (its memory and time).
     #[arg(long)]
     score: bool,
+    /// Stages to run again in a reused work folder (their folders are removed first),
+    /// e.g. `--rerun import,refine,shard` to measure a new binary without rendering the
+    /// scenes again. The other stages' rows then show a skip, not a run.
+    #[arg(long, value_delimiter = ',')]
+    rerun: Vec<String>,
 }
 
 struct Row {
@@ -56,6 +61,9 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         .with_context(|| format!("reading {}", a.pipeline.display()))?;
     let base: toml::Table =
         toml::from_str(&base).with_context(|| format!("parsing {}", a.pipeline.display()))?;
+    if let Some(bad) = a.rerun.iter().find(|s| !STAGES.contains(&s.as_str())) {
+        bail!("--rerun {bad}: expected stages among {}", STAGES.join(", "));
+    }
     std::fs::create_dir_all(&a.work)?;
     let work = a.work.canonicalize()?;
     let mut rows = Vec::new();
@@ -63,6 +71,13 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         let dir = work.join(frames.to_string());
         std::fs::create_dir_all(&dir)?;
         let pipeline = write_pipeline(&base, frames, &dir)?;
+        for stage in &a.rerun {
+            let folder = dir.join("work").join(stage);
+            if folder.exists() {
+                std::fs::remove_dir_all(&folder)
+                    .with_context(|| format!("removing {}", folder.display()))?;
+            }
+        }
         for stage in STAGES {
             let (seconds, peak) = child(
                 Command::new(&exe)
@@ -71,7 +86,13 @@ pub fn run(a: Args) -> anyhow::Result<()> {
                     .args(["--until", stage]),
                 &dir.join(format!("{stage}.log")),
             )?;
-            rows.push(row(frames, stage, seconds, peak));
+            let log = std::fs::read_to_string(dir.join(format!("{stage}.log")))?;
+            let what = if was_skipped(&log, stage) {
+                format!("{stage} (kept)")
+            } else {
+                stage.to_string()
+            };
+            rows.push(row(frames, &what, seconds, peak));
             eprintln!(
                 "{frames} frames: {stage} {seconds:.1} s, {:.0} MB",
                 peak / 1e6
@@ -113,6 +134,15 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     }
     print_table(&rows, &a);
     Ok(())
+}
+
+/// Whether `pl2map run`'s summary (its log) says the stage was up to date, not run.
+fn was_skipped(log: &str, stage: &str) -> bool {
+    log.lines().any(|l| {
+        l.strip_prefix(stage).is_some_and(|rest| {
+            rest.starts_with(' ') && rest.trim_start().starts_with("up to date")
+        })
+    })
 }
 
 fn row(frames: usize, what: &str, seconds: f64, peak: f64) -> Row {
@@ -284,5 +314,21 @@ fn print_table(rows: &[Row], a: &Args) {
             opt(r.wait_s),
             ratio
         );
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::was_skipped;
+
+    /// The summary `pl2map run` prints (crates/pipeline's stage table).
+    #[test]
+    fn a_kept_stage_is_told_from_a_run_one() {
+        let log = "stage    status          seconds  notes\n\
+                   synth    up to date          5.2  10500 frames, seed 0\n\
+                   refine   ran                39.4  6936588 of 6936588 point labels kept\n";
+        assert!(was_skipped(log, "synth"));
+        assert!(!was_skipped(log, "refine"));
+        assert!(!was_skipped(log, "shard"));
     }
 }

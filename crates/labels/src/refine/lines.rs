@@ -13,10 +13,17 @@ use std::collections::{BTreeMap, HashMap};
 use std::ops::Range;
 use tables::labels::{LineRow, PoseRow};
 
-/// The back-projected samples of one support: candidate sets, the depth read on the
-/// segment first, then (for segments on an occluding edge) the depth of each side
-/// extrapolated to the segment. None when no set had `line_min_valid_samples` valid.
-type SupportSamples = Option<Vec<Vec<Vector3<f64>>>>;
+/// The samples of one support: candidate sets, the depth read on the segment first, then
+/// (for segments on an occluding edge) the depth of each side extrapolated to the
+/// segment. None when no set had `line_min_valid_samples` valid.
+type SupportSamples = Option<Vec<DepthSet>>;
+
+/// One candidate set: the depth at each of the support's samples, NaN where it has no
+/// valid one. The world points are back-projected again where the support's track is
+/// refined ([`set_points`]: the same pixel and depth, so the same bits). Keeping the
+/// points instead cost three times the memory: at a 7,000-frame scene's size (0.6 M
+/// supports) well over a gigabyte (docs/performance.md, "A real scene's size").
+type DepthSet = Vec<f64>;
 
 pub(crate) struct FrameSamples {
     supports: Vec<(usize, SupportSamples)>,
@@ -44,6 +51,23 @@ fn side_depth(depth: &DepthMap, px: &Vector2<f64>, normal: &Vector2<f64>) -> Opt
     (inv > 0.0).then(|| 1.0 / inv)
 }
 
+/// The pixel of sample `k` of `n` along a segment, both endpoints included.
+fn sample_pixel(s: &[f64; 4], k: usize, n: usize) -> Vector2<f64> {
+    let t = k as f64 / (n - 1) as f64;
+    Vector2::new(s[0] + t * (s[2] - s[0]), s[1] + t * (s[3] - s[1]))
+}
+
+/// The world points of one candidate set of a support (segment `s`, seen from `view`).
+fn set_points(view: &PoseRow, s: &[f64; 4], depths: &[f64]) -> Vec<Vector3<f64>> {
+    let n = depths.len();
+    depths
+        .iter()
+        .enumerate()
+        .filter(|(_, d)| !d.is_nan())
+        .filter_map(|(k, &d)| back_project(&view.camera, &view.pose, &sample_pixel(s, k, n), d))
+        .collect()
+}
+
 pub(crate) fn sample_frame(
     config: &RefineConfig,
     view: &PoseRow,
@@ -67,35 +91,42 @@ pub(crate) fn sample_frame(
         let dir = Vector2::new(s[2] - s[0], s[3] - s[1]);
         let normal = Vector2::new(-dir.y, dir.x) / dir.norm().max(f64::MIN_POSITIVE);
         // On the segment, then each side of it.
-        let mut sets: [Vec<Vector3<f64>>; 3] = Default::default();
+        let mut sets: [DepthSet; 3] = std::array::from_fn(|_| vec![f64::NAN; n]);
+        let mut valid = [0usize; 3];
         let mut depth_sum = [0.0f64; 3];
+        // k is the sample's index in all three sets and the pixel's along the segment.
+        #[allow(clippy::needless_range_loop)]
         for k in 0..n {
-            let t = k as f64 / (n - 1) as f64;
-            let px = Vector2::new(s[0] + t * (s[2] - s[0]), s[1] + t * (s[3] - s[1]));
+            let px = sample_pixel(s, k, n);
             let depths = [
                 depth.sample(&px),
                 side_depth(depth, &px, &normal),
                 side_depth(depth, &px, &-normal),
             ];
             for (j, d) in depths.into_iter().enumerate() {
-                if let Some((d, w)) =
-                    d.and_then(|d| Some((d, back_project(&view.camera, &view.pose, &px, d)?)))
+                // Kept only where it back-projects (as `set_points` will again).
+                if let Some(d) =
+                    d.filter(|&d| back_project(&view.camera, &view.pose, &px, d).is_some())
                 {
-                    sets[j].push(w);
+                    sets[j][k] = d;
+                    valid[j] += 1;
                     depth_sum[j] += d;
                 }
             }
         }
         // An occluding edge belongs to the nearer surface: try that side first.
-        let mean = |j: usize| depth_sum[j] / sets[j].len().max(1) as f64;
-        if sets[2].len() >= config.line_min_valid_samples
-            && (sets[1].len() < config.line_min_valid_samples || mean(2) < mean(1))
+        let mean = |j: usize| depth_sum[j] / valid[j].max(1) as f64;
+        if valid[2] >= config.line_min_valid_samples
+            && (valid[1] < config.line_min_valid_samples || mean(2) < mean(1))
         {
             sets.swap(1, 2);
+            valid.swap(1, 2);
         }
-        let sets: Vec<Vec<Vector3<f64>>> = sets
+        let sets: Vec<DepthSet> = sets
             .into_iter()
-            .filter(|p| p.len() >= config.line_min_valid_samples)
+            .zip(valid)
+            .filter(|(_, v)| *v >= config.line_min_valid_samples)
+            .map(|(set, _)| set)
             .collect();
         supports.push((i, (!sets.is_empty()).then_some(sets)));
     }
@@ -122,14 +153,16 @@ fn ratio_ok(config: &RefineConfig, inliers: usize, total: usize) -> bool {
 }
 
 /// An accepted support of a track: its row, the inlier samples of its first fitting
-/// set, and all its sets.
-type Accepted<'a> = (usize, Vec<Vector3<f64>>, &'a [Vec<Vector3<f64>>]);
+/// set, and all its sets' points.
+type Accepted = (usize, Vec<Vector3<f64>>, Vec<Vec<Vector3<f64>>>);
 
+/// `points(row, sets)`: the world points of a support's candidate sets.
 fn refine_track(
     config: &RefineConfig,
     key: i64,
     members: &[usize],
     observed: &HashMap<usize, &SupportSamples>,
+    points: impl Fn(usize, &[DepthSet]) -> Vec<Vec<Vector3<f64>>>,
     old_direction: Vector3<f64>,
 ) -> TrackResult {
     let thr = config.line_inlier_threshold_m;
@@ -141,7 +174,8 @@ fn refine_track(
         match observed.get(&i) {
             None => {}
             Some(None) => outcomes.push((i, Outcome::NoDepth)),
-            Some(Some(sets)) => {
+            Some(Some(depths)) => {
+                let sets = points(i, depths);
                 // The first candidate set whose samples lie on one line: the depth on the
                 // segment, else one side of an occluding edge.
                 let fitted = sets.iter().find_map(|pts| {
@@ -279,7 +313,18 @@ pub(crate) fn combine(
                 (ends[0], ends[1])
             };
             let dir = Vector3::from(e) - Vector3::from(s);
-            refine_track(config, *key, members, &observed, dir)
+            let points = |i: usize, depths: &[DepthSet]| {
+                let row = &rows_ref[i];
+                match poses.get(&row.frame_id) {
+                    Some(view) => depths
+                        .iter()
+                        .map(|d| set_points(view, &row.segment, d))
+                        .collect(),
+                    // Sampled rows have a view (`sample_frame` ran on it).
+                    None => Vec::new(),
+                }
+            };
+            refine_track(config, *key, members, &observed, points, dir)
         })
         .collect();
 

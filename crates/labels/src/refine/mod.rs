@@ -89,10 +89,12 @@ impl View<'_> {
 }
 
 /// Refines label tables in memory (see the module docs). `depth_paths`: frame id ->
-/// depth map; `units_per_metre` of every depth map.
+/// depth map; `units_per_metre` of every depth map. Takes the tables and rewrites their
+/// rows in place: at a 7,000-frame scene's size (8.7 M point rows) a copy alone costs
+/// about 0.7 GB (docs/performance.md, "A real scene's size").
 pub fn refine(
     config: &RefineConfig,
-    labels: &LabelTables,
+    mut labels: LabelTables,
     depth_paths: &HashMap<u32, PathBuf>,
     units_per_metre: f64,
 ) -> Result<(LabelTables, RefineReport), RefineError> {
@@ -130,27 +132,22 @@ pub fn refine(
     bar.finish_and_clear();
     let (point_samples, line_samples): (Vec<_>, Vec<_>) = samples.into_iter().unzip();
 
-    let mut out = LabelTables {
-        source: LabelSource::DepthRefined,
-        pose_source: labels.pose_source,
-        frames_sha256: labels.frames_sha256.clone(),
-        line_tracks: labels.line_tracks.clone(),
-        points: labels.points.clone(),
-        lines: labels.lines.clone(),
-        poses: labels.poses.clone(),
-    };
-    let points_report = points::combine(config, &mut out.points, point_samples);
+    let frames = views.len();
+    drop(views);
+    let points_report = points::combine(config, &mut labels.points, point_samples);
     let poses_by_frame: HashMap<u32, &PoseRow> =
         labels.poses.iter().map(|p| (p.frame_id, p)).collect();
-    let lines_report = lines::combine(config, &mut out.lines, line_samples, &poses_by_frame);
+    let lines_report = lines::combine(config, &mut labels.lines, line_samples, &poses_by_frame);
+    drop(poses_by_frame);
+    labels.source = LabelSource::DepthRefined;
     let report = RefineReport {
         config: config.clone(),
-        frames: views.len(),
+        frames,
         frames_with_depth: with_depth,
         points: points_report,
         lines: lines_report,
     };
-    Ok((out, report))
+    Ok((labels, report))
 }
 
 /// frame id -> row range, for rows sorted by frame id.

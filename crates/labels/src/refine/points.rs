@@ -5,7 +5,7 @@ use super::report::{KindReport, Outcome, Tally};
 use crate::depth::{DepthMap, back_project};
 use crate::stats::{dist3, median3};
 use geometry::{Vector2, Vector3};
-use std::collections::{BTreeMap, HashMap};
+use std::collections::BTreeMap;
 use std::ops::Range;
 use tables::labels::{PointRow, PoseRow};
 
@@ -51,6 +51,35 @@ pub(crate) fn sample_frame(
     FrameSamples { obs }
 }
 
+/// Every frame's observations, looked up by row with two binary searches. A map from
+/// row to observation would hold every observation again: at a 7,000-frame scene's size
+/// (6.9 M observations) about 0.7 GB (docs/performance.md, "A real scene's size").
+struct Observed {
+    /// Frames with observations, ordered by their rows (each frame's rows are one
+    /// ascending run, and runs of different frames do not overlap).
+    frames: Vec<FrameSamples>,
+}
+
+impl Observed {
+    fn new(samples: Vec<FrameSamples>) -> Self {
+        let mut frames: Vec<FrameSamples> =
+            samples.into_iter().filter(|f| !f.obs.is_empty()).collect();
+        frames.sort_by_key(|f| f.obs[0].0);
+        Observed { frames }
+    }
+
+    /// None: the row was not observed (its frame has no depth map); Some(None): observed
+    /// without a valid depth; Some(Some(w)): the back-projected point.
+    fn get(&self, row: usize) -> Option<Option<[f64; 3]>> {
+        let k = self
+            .frames
+            .partition_point(|f| f.obs.last().is_some_and(|(i, _)| *i < row));
+        let obs = &self.frames.get(k)?.obs;
+        let j = obs.binary_search_by_key(&row, |(i, _)| *i).ok()?;
+        Some(obs[j].1)
+    }
+}
+
 /// Groups the labels of each 3D point (a valid label without a point id is its own
 /// group), combines the observations and rewrites `rows`.
 pub(crate) fn combine(
@@ -69,13 +98,12 @@ pub(crate) fn combine(
             groups.entry(key).or_default().push(i);
         }
     }
-    let observed: HashMap<usize, Option<[f64; 3]>> =
-        samples.into_iter().flat_map(|s| s.obs).collect();
+    let observed = Observed::new(samples);
     let mut tally = Tally::default();
     for members in groups.values() {
         let valid: Vec<(usize, [f64; 3])> = members
             .iter()
-            .filter_map(|i| observed.get(i).copied().flatten().map(|w| (*i, w)))
+            .filter_map(|&i| observed.get(i).flatten().map(|w| (i, w)))
             .collect();
         let combined = median3(&valid.iter().map(|(_, w)| *w).collect::<Vec<_>>()).and_then(|m| {
             let inliers: Vec<[f64; 3]> = valid
@@ -100,11 +128,11 @@ pub(crate) fn combine(
         };
         tally.object(true);
         for &i in members {
-            let outcome = match observed.get(&i) {
+            let outcome = match observed.get(i) {
                 // Frame without a depth map: the combined point.
                 None => Outcome::Kept,
                 Some(None) => Outcome::NoDepth,
-                Some(Some(w)) if dist3(w, &point) <= config.point_inlier_threshold_m => {
+                Some(Some(w)) if dist3(&w, &point) <= config.point_inlier_threshold_m => {
                     Outcome::Kept
                 }
                 Some(Some(_)) => Outcome::Disagree,

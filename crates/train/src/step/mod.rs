@@ -4,6 +4,7 @@ pub mod groups;
 mod optimizer;
 
 use groups::GroupPools;
+use model::buckets::BucketLimits;
 use model::burn::module::{AutodiffModule, Module};
 use model::burn::optim::{GradientsParams, Optimizer};
 use model::burn::tensor::Tensor;
@@ -52,6 +53,8 @@ pub struct TrainState<B: AutodiffBackend<InnerBackend: Pl2MapBackend> + Pl2MapBa
     group_pools: Option<GroupPools>,
     /// Called once a grouped step's gradients are made, before its update.
     on_gradients: Option<Box<dyn Fn() + Send + Sync>>,
+    /// Shape buckets (crates/model/src/buckets.rs): None, the images' own sizes.
+    shape_buckets: Option<BucketLimits>,
 }
 
 impl<B: AutodiffBackend<InnerBackend: Pl2MapBackend> + Pl2MapBackend> TrainState<B> {
@@ -64,6 +67,7 @@ impl<B: AutodiffBackend<InnerBackend: Pl2MapBackend> + Pl2MapBackend> TrainState
             batch_groups: 1,
             group_pools: None,
             on_gradients: None,
+            shape_buckets: None,
         })
     }
 
@@ -102,6 +106,7 @@ impl<B: AutodiffBackend<InnerBackend: Pl2MapBackend> + Pl2MapBackend> TrainState
             batch_groups: 1,
             group_pools: None,
             on_gradients: None,
+            shape_buckets: None,
         })
     }
 
@@ -147,8 +152,8 @@ impl<B: AutodiffBackend<InnerBackend: Pl2MapBackend> + Pl2MapBackend> TrainState
             model,
             samples,
             &self.loss,
-            options.progress,
-            options.dropout_seed,
+            (options.progress, options.dropout_seed),
+            self.shape_buckets,
         )?;
         let losses = LossValues::mean(&values);
         let Some(total) = total else {
@@ -199,6 +204,15 @@ impl<B: AutodiffBackend<InnerBackend: Pl2MapBackend> + Pl2MapBackend> TrainState
         Ok(())
     }
 
+    /// Pads every pass's images to shape buckets under `limits`
+    /// (crates/model/src/buckets.rs; the trainer's `[train] shape_buckets`), or not
+    /// (None, the default). The losses and gradients of the real rows are the same up
+    /// to float rounding (dropout masks are drawn for the padded tensors, so with
+    /// dropout on they differ); a JIT engine then meets a few fixed shapes.
+    pub fn set_shape_buckets(&mut self, limits: Option<BucketLimits>) {
+        self.shape_buckets = limits;
+    }
+
     /// `f` is called in every grouped step once the groups' gradients are made, before
     /// the Adam update (the trainer lets its sample stream refill then: the update is
     /// bound by memory, the passes before it by both cores). Not called by a stacked
@@ -230,6 +244,7 @@ impl<B: AutodiffBackend<InnerBackend: Pl2MapBackend> + Pl2MapBackend> TrainState
             .collect();
         let n = samples.len() as f64;
         let loss = &self.loss;
+        let buckets = self.shape_buckets;
         // No group's backward pass may start while another group still builds its graph:
         // each backward pass ends in burn's sweep over every graph of the process, which
         // can free the steps of a graph under construction (autodiff_lock.rs). Groups run
@@ -244,8 +259,11 @@ impl<B: AutodiffBackend<InnerBackend: Pl2MapBackend> + Pl2MapBackend> TrainState
                     copy,
                     &samples[ranges[g].clone()],
                     loss,
-                    options.progress,
-                    group_dropout_seed(options.dropout_seed, g),
+                    (
+                        options.progress,
+                        group_dropout_seed(options.dropout_seed, g),
+                    ),
+                    buckets,
                 )
                 .map(|(values, total)| (values, total.map(|t| t.div_scalar(n))))
             }));
@@ -299,23 +317,53 @@ fn group_dropout_seed(seed: u64, g: usize) -> u64 {
 /// none has).
 type ImageLosses<B> = (Vec<LossValues>, Option<Tensor<B, 1>>);
 
-/// The forward pass and the loss of `samples` through `model`.
+/// The (images, N, M) of each pass through the network of a step on images of real
+/// sizes `sizes` (N, M) (after the trainer's limits), split into `batch_groups`
+/// gradient groups, with shape buckets or without: what a JIT engine compiles kernels
+/// for (tests/shape_buckets.rs counts them over a run's data).
+pub fn pass_shapes(
+    sizes: &[(usize, usize)],
+    batch_groups: usize,
+    buckets: Option<BucketLimits>,
+) -> Vec<(usize, usize, usize)> {
+    groups::split(sizes.len(), batch_groups)
+        .into_iter()
+        .flat_map(|r| {
+            let group = &sizes[r];
+            match buckets {
+                Some(b) => model::network::pass_shapes(&vec![b.padded(group); group.len()]),
+                None => model::network::pass_shapes(group),
+            }
+        })
+        .collect()
+}
+
+/// The forward pass and the loss of `samples` through `model` at (training progress,
+/// dropout seed), padded to shape buckets under `buckets`.
 fn forward_loss<B: AutodiffBackend<InnerBackend: Pl2MapBackend> + Pl2MapBackend>(
     model: &Pl2Map<B>,
     samples: &[Sample],
     loss: &LossConfig,
-    progress: f64,
-    dropout_seed: u64,
+    (progress, dropout_seed): (f64, u64),
+    buckets: Option<BucketLimits>,
 ) -> Result<ImageLosses<B>, ModelError> {
     let device = model
         .devices()
         .into_iter()
         .next()
         .ok_or_else(|| ModelError::InvalidConfig("network has no parameters".into()))?;
+    // One padded size for all the pass's images, so that they stack into one pass.
+    let padded = buckets.map(|b| {
+        let sizes: Vec<(usize, usize)> = samples
+            .iter()
+            .map(|s| (s.num_points(), s.num_lines()))
+            .collect();
+        b.padded(&sizes)
+    });
     let mut inputs = Vec::with_capacity(samples.len());
     let mut targets = Vec::with_capacity(samples.len());
     for sample in samples {
-        let t = sample.to_tensors::<B>(&model.config, &device)?;
+        let t = sample.to_tensors_padded::<B>(&model.config, padded, &device)?;
         inputs.push(t.input);
         targets.push(t.targets);
     }
@@ -484,6 +532,165 @@ mod tests {
         let mut s =
             TrainState::<AD>::init(&cfg, LossConfig::indoor(), 9, &Default::default()).unwrap();
         assert!(s.step_batch(&[], &options(0, 0.9)).is_err());
+    }
+
+    /// Every parameter's gradient of `total` through `model`, in visiting order.
+    fn parameter_gradients(model: &Pl2Map<AD>, total: Tensor<AD, 1>) -> Vec<f32> {
+        use model::burn::module::{ModuleVisitor, Param};
+        type Grads = <AD as AutodiffBackend>::Gradients;
+        struct Collect<'a>(&'a Grads, Vec<f32>);
+        impl ModuleVisitor<AD> for Collect<'_> {
+            fn visit_float<const D: usize>(&mut self, param: &Param<Tensor<AD, D>>) {
+                if let Some(g) = param.val().grad(self.0) {
+                    self.1.extend(g.into_data().convert::<f32>().iter::<f32>());
+                }
+            }
+        }
+        let grads = total.backward();
+        let mut c = Collect(&grads, Vec::new());
+        model.visit(&mut c);
+        c.1
+    }
+
+    /// The per-image loss values and the parameter gradients of one pass.
+    fn pass(
+        model: &Pl2Map<AD>,
+        batch: &[Sample],
+        loss: &LossConfig,
+        buckets: Option<BucketLimits>,
+    ) -> (Vec<LossValues>, Vec<f32>) {
+        let (values, total) = forward_loss(model, batch, loss, (0.9, 3), buckets).unwrap();
+        (values, parameter_gradients(model, total.unwrap()))
+    }
+
+    /// Shape buckets (crates/model/src/buckets.rs) change no loss term and no gradient
+    /// beyond float rounding: networks with and without attention layers, both
+    /// reprojection target sets, images with and without lines (and one without
+    /// points) of different real sizes padded into one stacked pass.
+    #[test]
+    fn shape_buckets_keep_losses_and_gradients() {
+        let _autodiff = kernels::autodiff_lock::exclusive();
+        let limits = BucketLimits {
+            points: 8,
+            lines: 4,
+        };
+        for layers in [tiny_config().layers, Vec::new()] {
+            let cfg = ModelConfig {
+                layers,
+                dropout: 0.0,
+                ..tiny_config()
+            };
+            let mut batch: Vec<Sample> = [(6, 3), (4, 0), (5, 2), (0, 3)]
+                .iter()
+                .map(|&(n, m)| tiny_sample(&cfg, n, m))
+                .collect();
+            for (i, s) in batch.iter_mut().enumerate() {
+                for l in &mut s.point_labels {
+                    l[0] += 0.2 * i as f32;
+                }
+                // A degenerate segment: left out of the reprojection term either way.
+                if let Some(seg) = s.segments.get_mut(1) {
+                    seg[2] = seg[0];
+                    seg[3] = seg[1];
+                }
+            }
+            let net = cfg.init::<AD>(2, &Default::default()).unwrap();
+            for targets in [
+                model::ReprojectionTargets::LabelledWeighted,
+                model::ReprojectionTargets::Unlabelled,
+            ] {
+                let loss = LossConfig {
+                    reprojection_targets: targets,
+                    reprojection_start: 0.0,
+                    ..LossConfig::indoor()
+                };
+                let (off, grad_off) = pass(&net, &batch, &loss, None);
+                let (on, grad_on) = pass(&net, &batch, &loss, Some(limits));
+                assert_eq!(off.len(), on.len());
+                for (a, b) in off.iter().zip(&on) {
+                    let close = |x: f64, y: f64| (x - y).abs() <= 1e-5 * (1.0 + x.abs());
+                    for (x, y) in [
+                        (a.total, b.total),
+                        (a.map_points, b.map_points),
+                        (a.map_lines, b.map_lines),
+                        (a.reliability_points, b.reliability_points),
+                        (a.reliability_lines, b.reliability_lines),
+                        (a.reprojection_points, b.reprojection_points),
+                        (a.reprojection_lines, b.reprojection_lines),
+                    ] {
+                        assert!(close(x, y), "{a:?}\n{b:?}");
+                    }
+                    assert_eq!(
+                        (
+                            a.reprojection_valid_points,
+                            a.reprojection_valid_lines,
+                            a.reprojection_candidates_points,
+                            a.reprojection_candidates_lines
+                        ),
+                        (
+                            b.reprojection_valid_points,
+                            b.reprojection_valid_lines,
+                            b.reprojection_candidates_points,
+                            b.reprojection_candidates_lines
+                        )
+                    );
+                }
+                assert!(off.iter().any(|v| v.reprojection_valid_points > 0));
+                assert_eq!(grad_off.len(), grad_on.len());
+                let scale = grad_off.iter().fold(0f32, |m, g| m.max(g.abs()));
+                assert!(scale > 0.0);
+                for (x, y) in grad_off.iter().zip(&grad_on) {
+                    assert!((x - y).abs() <= 1e-5 * scale, "{x} vs {y}");
+                }
+            }
+        }
+    }
+
+    /// Images already at a bucket's size: attention takes the unpadded path (the Flex
+    /// kernel), only the loss is in its masked form, and the gradients are the same
+    /// bits as the index-list form's.
+    #[test]
+    fn masked_losses_at_a_buckets_size_keep_the_gradients_bit_for_bit() {
+        let _autodiff = kernels::autodiff_lock::exclusive();
+        let cfg = ModelConfig {
+            dropout: 0.0,
+            ..tiny_config()
+        };
+        let batch = vec![tiny_sample(&cfg, 8, 4), tiny_sample(&cfg, 8, 4)];
+        let limits = BucketLimits {
+            points: 8,
+            lines: 4,
+        };
+        let net = cfg.init::<AD>(2, &Default::default()).unwrap();
+        let loss = LossConfig {
+            reprojection_start: 0.0,
+            ..LossConfig::indoor()
+        };
+        let (_, off) = pass(&net, &batch, &loss, None);
+        let (_, on) = pass(&net, &batch, &loss, Some(limits));
+        let bits = |g: &[f32]| g.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&off), bits(&on));
+    }
+
+    /// What the shape-count test (tests/shape_buckets.rs) counts: one stacked pass per
+    /// gradient group with buckets; without, one pass per image when sizes differ.
+    #[test]
+    fn pass_shapes_follow_the_batch() {
+        let limits = BucketLimits {
+            points: 32,
+            lines: 12,
+        };
+        let sizes = [(32, 12), (30, 12), (32, 7), (32, 12)];
+        assert_eq!(
+            pass_shapes(&sizes, 1, None),
+            [(1, 32, 12), (1, 30, 12), (1, 32, 7), (1, 32, 12)]
+        );
+        assert_eq!(pass_shapes(&sizes, 1, Some(limits)), [(4, 32, 12)]);
+        assert_eq!(
+            pass_shapes(&sizes, 2, Some(limits)),
+            [(2, 32, 12), (2, 32, 12)]
+        );
+        assert_eq!(pass_shapes(&[(32, 12), (32, 12)], 1, None), [(2, 32, 12)]);
     }
 
     /// The gradient-group tests' network and images: no dropout (the groups draw their

@@ -1,0 +1,276 @@
+//! How many tensor shapes a training run presents to the network, with shape buckets off
+//! and on (crates/model/src/buckets.rs): a JIT engine (CUDA, CubeCL) compiles kernels
+//! for each new shape, so this count is what buckets are for.
+//!
+//! The synthetic room (`pl2map synth`, 300 frames, through ingest, import and shard with
+//! the built binary) feeds the trainer's real data path: `train::stream::FrameStream`
+//! (the shuffled epoch order) preparing each frame with `train::sample::prepare_with_cache`
+//! and the SIFT front-end, seeded by its stream position as the trainer seeds it, with
+//! the descriptor cache filled up front as the trainer fills it. Shapes counted:
+//! - the network's passes, (images, N, M) each, from `train::step::pass_shapes` (the
+//!   step's own grouping);
+//! - without buckets, the loss's index gathers (crates/model/src/loss.rs): the labelled
+//!   points and lines of the map term, and with the reprojection term on, its target
+//!   sets. With buckets the loss runs over masks in the pass's shape: nothing to add.
+//!
+//! Recipes: the main job (pipeline/synthetic.toml's [train]: 16 images a step in two
+//! gradient groups, limits 32 / 12, no augmentation) and the paper recipe's data path
+//! (pipeline/7scenes-paper.toml's [train]: one image a step, limits 2048 / 128 (its
+//! `max_keypoints`; lines take the default), augmentation on half the samples), with the
+//! SIFT front-end on the synthetic room (its SuperPoint needs the user's weights; the
+//! front-end does not change the counts). Also the default limits 1024 / 128. Each over
+//! 2,000 steps.
+
+use features::FrontEnd;
+use std::collections::BTreeSet;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::sync::Arc;
+use train::config::ShapeBuckets;
+use train::descriptor_cache::DescriptorCache;
+use train::sample::prepare_with_cache;
+use train::seeds::{self, Purpose};
+use train::stream::{FrameStream, StreamConfig};
+use train::{Device, Limits, TrainConfig};
+
+const STEPS: u64 = 2000;
+
+fn pl2map() -> Command {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_pl2map"));
+    c.arg("--quiet");
+    c
+}
+
+fn run(c: &mut Command, what: &str) {
+    let out = c.output().unwrap();
+    assert!(
+        out.status.success(),
+        "{what}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+/// The synthetic room's training shards under `root`.
+fn room_shards(root: &Path) -> Vec<PathBuf> {
+    run(pl2map().arg("synth").arg(root.join("data")), "synth");
+    let scene = root.join("data/synthroom");
+    run(
+        pl2map()
+            .args(["ingest", "--dataset", "7scenes", "--root"])
+            .arg(&scene)
+            .arg("--out")
+            .arg(root.join("frames")),
+        "ingest",
+    );
+    run(
+        pl2map()
+            .arg("import")
+            .arg("--frames")
+            .arg(root.join("frames/frames.parquet"))
+            .arg("--model")
+            .arg(scene.join("sfm_gt/colmap"))
+            .arg("--limap")
+            .arg(scene.join("sfm_gt/limap"))
+            .arg("--out")
+            .arg(root.join("labels")),
+        "import",
+    );
+    run(
+        pl2map()
+            .arg("shard")
+            .arg("--frames")
+            .arg(root.join("frames/frames.parquet"))
+            .arg("--labels")
+            .arg(root.join("labels"))
+            .arg("--out")
+            .arg(root.join("shards")),
+        "shard",
+    );
+    let mut shards: Vec<PathBuf> = std::fs::read_dir(root.join("shards"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| {
+            p.file_name()
+                .and_then(|n| n.to_str())
+                .is_some_and(|n| n.starts_with("train-") && n.ends_with(".mcap"))
+        })
+        .collect();
+    shards.sort();
+    assert!(!shards.is_empty());
+    shards
+}
+
+/// What the shapes of one image depend on: its (N, M) and the sizes of its loss's index
+/// gathers without buckets.
+#[derive(Clone, Copy)]
+struct ImageSizes {
+    rows: (usize, usize),
+    labelled_points: usize,
+    labelled_lines: usize,
+    /// Labelled lines of non-zero length (the paper's reprojection target set).
+    reprojectable_lines: usize,
+}
+
+/// Over `STEPS` steps of `config`'s data path: the distinct shapes with buckets off
+/// (passes and gathers) and on (passes), and the distinct real (N, M) of the images.
+/// `cache`: the frames' descriptors, filled up front.
+fn count_shapes(
+    shards: &[PathBuf],
+    config: &TrainConfig,
+    front_end: Arc<dyn FrontEnd>,
+    cache: Arc<DescriptorCache>,
+) -> (usize, usize, usize) {
+    let stream_config = StreamConfig {
+        shuffle_buffer: config.shuffle_buffer,
+        prefetch: 2 * config.batch_frames,
+        seed: config.seed,
+        chunk_cache_bytes: 256 << 20,
+        workers: 2,
+    };
+    let (aug, limits, seed) = (config.augment.clone(), config.limits.clone(), config.seed);
+    // As the trainer prepares its samples (crates/train/src/trainer.rs, `sample_stream`).
+    let mut stream = FrameStream::start(shards, stream_config, 0, move |at, frame| {
+        let mut rng = seeds::rng(seed, Purpose::Sample, at.position);
+        let p = prepare_with_cache(
+            &frame,
+            front_end.as_ref(),
+            Some(&aug),
+            &limits,
+            &mut rng,
+            Some(&cache),
+        )?;
+        let s = &p.sample;
+        let labelled = |valid: &[bool]| valid.iter().filter(|v| **v).count();
+        Ok(ImageSizes {
+            rows: (s.num_points(), s.num_lines()),
+            labelled_points: labelled(&s.point_valid),
+            labelled_lines: labelled(&s.line_valid),
+            reprojectable_lines: s
+                .segments
+                .iter()
+                .zip(&s.line_valid)
+                .filter(|(seg, v)| **v && model::sample::line_equation(seg).is_some())
+                .count(),
+        })
+    })
+    .unwrap();
+    let reprojection = config.loss.weight_reprojection > 0.0;
+    let on = TrainConfig {
+        shape_buckets: ShapeBuckets::On,
+        ..config.clone()
+    };
+    let buckets = on.training_buckets(Device::Cpu);
+    assert!(buckets.is_some());
+    // The default policy on the CPU: no buckets.
+    assert_eq!(config.training_buckets(Device::Cpu), None);
+    let (mut off_shapes, mut on_shapes, mut sizes) =
+        (BTreeSet::new(), BTreeSet::new(), BTreeSet::new());
+    // A gather's shape: (which gather, rows); a pass's: (images, N, M).
+    let mut gathers = BTreeSet::new();
+    for _ in 0..STEPS {
+        let images: Vec<ImageSizes> = (0..config.batch_frames)
+            .map(|_| stream.next_item().unwrap().1)
+            .collect();
+        let step: Vec<(usize, usize)> = images.iter().map(|i| i.rows).collect();
+        sizes.extend(step.iter().copied());
+        let passes = |b| train::step::pass_shapes(&step, config.batch_groups, b);
+        off_shapes.extend(passes(None));
+        on_shapes.extend(passes(buckets));
+        for i in &images {
+            gathers.insert(("labelled points", i.labelled_points));
+            gathers.insert(("labelled lines", i.labelled_lines));
+            if reprojection {
+                gathers.insert(("reprojectable labelled lines", i.reprojectable_lines));
+            }
+        }
+    }
+    let off_shapes = off_shapes.len() + gathers.len();
+    (off_shapes, on_shapes.len(), sizes.len())
+}
+
+#[test]
+fn shape_buckets_bound_the_shapes_a_run_presents() {
+    let dir = tempfile::tempdir().unwrap();
+    let shards = room_shards(dir.path());
+    let pipeline = |name: &str| {
+        Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../../pipeline")
+            .join(name)
+    };
+    // The main job: pipeline/synthetic.toml's [train] as it is.
+    let text = std::fs::read_to_string(pipeline("synthetic.toml")).unwrap();
+    let mut table: toml::Table = toml::from_str(&text).unwrap();
+    let train = toml::Table::from_iter([("train".to_string(), table.remove("train").unwrap())]);
+    let main_job = TrainConfig::from_toml_str(&toml::to_string(&train).unwrap()).unwrap();
+    assert_eq!(
+        (main_job.batch_frames, main_job.batch_groups),
+        (16, 2),
+        "pipeline/synthetic.toml changed: update this test's doc comment"
+    );
+    assert_eq!(
+        main_job.limits,
+        Limits {
+            max_keypoints: 32,
+            max_lines: 12
+        }
+    );
+    // The paper recipe: pipeline/7scenes-paper.toml's batch, limits and augmentation.
+    let text = std::fs::read_to_string(pipeline("7scenes-paper.toml")).unwrap();
+    let table: toml::Table = toml::from_str(&text).unwrap();
+    let paper_train = &table["train"];
+    let paper_limits: Limits = paper_train["limits"].clone().try_into().unwrap();
+    let paper = TrainConfig {
+        batch_frames: paper_train["batch_frames"].as_integer().unwrap() as usize,
+        limits: paper_limits,
+        augment: paper_train["augment"].clone().try_into().unwrap(),
+        loss: paper_train["loss"].clone().try_into().unwrap(),
+        ..TrainConfig::default()
+    };
+    let default_limits = TrainConfig {
+        limits: Limits::default(),
+        ..paper.clone()
+    };
+    // Bounds on the distinct passes with buckets on: the main job's images sit at its
+    // limits or one ladder size under (two gradient groups of 8 share one shape); the
+    // paper's ladders hold 13 (N: 0 and 12 sizes) x 10 (M) pairs, of which the room's
+    // images meet a few.
+    // One front-end and one descriptor cache for all three (the same SIFT front-end; the
+    // cache holds whole frames, whatever the limits).
+    for c in [&main_job, &paper] {
+        assert_eq!(c.front_end, TrainConfig::default().front_end);
+    }
+    let front_end = frontends::build(&main_job.front_end).unwrap();
+    let mut cache = DescriptorCache::new(main_job.descriptor_cache_mib);
+    let bar = stage::progress_bar(0, "describing frames for the descriptor cache");
+    cache
+        .prefill(&shards, front_end.as_ref(), &bar, None)
+        .unwrap();
+    bar.finish_and_clear();
+    let cache = Arc::new(cache);
+    for (name, config, bound) in [
+        (
+            "main job (batch 16 in 2 groups, limits 32/12)",
+            &main_job,
+            4,
+        ),
+        (
+            "paper recipe (batch 1, limits 2048/128, augmented)",
+            &paper,
+            30,
+        ),
+        (
+            "default limits (batch 1, limits 1024/128, augmented)",
+            &default_limits,
+            30,
+        ),
+    ] {
+        let (off, on, sizes) = count_shapes(&shards, config, front_end.clone(), cache.clone());
+        eprintln!(
+            "{name}: {STEPS} steps, {sizes} distinct image sizes (N, M); distinct tensor \
+             shapes (network passes and loss gathers): {off} with buckets off, {on} with \
+             buckets on"
+        );
+        assert!(on <= bound, "{name}: {on} shapes with buckets on");
+        assert!(on <= off, "{name}: {on} > {off}");
+    }
+}
