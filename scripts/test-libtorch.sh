@@ -17,5 +17,7 @@ if ! lines="$(scripts/libtorch-env.sh 2>&1)"; then
     exit 0
 fi
 eval "$lines"
+# The dry run carries the examples beside pl2map: they must be the tch build's too.
+cargo build -p bench --features tch --locked --release --example engine_check --example gpu_step
 cargo test -p cli --features tch --locked --release \
     --test engines_libtorch --test gpu_errors --test gpu_check_dry_run

@@ -64,13 +64,18 @@ fn the_gpu_check_runs_end_to_end_on_the_cpu() {
         .find(|l| l.starts_with(engine))
         .unwrap_or_else(|| panic!("no {engine} row in\n{table}"));
     let cells: Vec<&str> = row.split_whitespace().collect();
-    // engine device agreement D=128 D=256 torch iters score
-    assert_eq!(cells.len(), 8, "{row}");
+    // engine device agreement D=128 D=256 torch first-step-cold/warm iters score
+    assert_eq!(cells.len(), 9, "{row}");
+    let first_steps: Vec<&str> = cells[6].split('/').collect();
     assert!(
-        cells[6].parse::<u32>().is_ok_and(|n| n >= 1),
+        first_steps.len() == 2 && first_steps.iter().all(|s| s.ends_with('s')),
+        "first step cold/warm: {row}"
+    );
+    assert!(
+        cells[7].parse::<u32>().is_ok_and(|n| n >= 1),
         "iterations: {row}"
     );
-    assert!(cells[7].ends_with('%'), "no score: {row}");
+    assert!(cells[8].ends_with('%'), "no score: {row}");
     if examples.join("gpu_step").is_file() {
         assert!(cells[3].ends_with("ms"), "no step time: {row}");
     }
