@@ -361,22 +361,14 @@ mod tests {
     use crate::augment::AugmentConfig;
     use crate::sample::{Limits, prepare, prepare_with_cache};
     use crate::seeds::{self, Purpose};
-    use crate::testutil::{frame, write_synthetic_shards};
-
-    fn front_end() -> features::SiftFrontEnd {
-        features::SiftFrontEnd::new(features::FrontEndConfig {
-            samples_per_line: 4,
-            ..Default::default()
-        })
-        .unwrap()
-    }
+    use crate::testutil::{frame, sift_front_end, write_synthetic_shards};
 
     /// A cached unaugmented sample is exactly the described one, for many subsets; an
     /// augmented one bypasses the cache; a zero budget caches nothing.
     #[test]
     fn cached_descriptors_are_the_described_ones() {
         let f = frame(3, 40, 6, 0.0);
-        let fe = front_end();
+        let fe = sift_front_end();
         let limits = Limits {
             max_keypoints: 12,
             max_lines: 3,
@@ -418,7 +410,7 @@ mod tests {
     fn prefilled_cache_gives_the_described_samples() {
         let dir = tempfile::tempdir().unwrap();
         let paths = write_synthetic_shards(dir.path(), 2, 3, 0.0);
-        let fe = front_end();
+        let fe = sift_front_end();
         let limits = Limits {
             max_keypoints: 7,
             max_lines: 2,
@@ -455,7 +447,7 @@ mod tests {
     fn spilled_frames_give_the_described_samples() {
         let dir = tempfile::tempdir().unwrap();
         let paths = write_synthetic_shards(dir.path(), 2, 3, 0.0);
-        let fe = front_end();
+        let fe = sift_front_end();
         let limits = Limits {
             max_keypoints: 7,
             max_lines: 2,
@@ -538,7 +530,7 @@ mod tests {
                 path
             })
             .collect();
-        let fe = front_end();
+        let fe = sift_front_end();
         let limits = Limits {
             max_keypoints: 7,
             max_lines: 2,

@@ -311,15 +311,7 @@ mod tests {
     use super::*;
     use crate::seeds::{self, Purpose};
     use crate::stream::{FrameStream, StreamConfig};
-    use crate::testutil::{frame, write_synthetic_shards};
-
-    fn front_end() -> features::SiftFrontEnd {
-        features::SiftFrontEnd::new(features::FrontEndConfig {
-            samples_per_line: 4,
-            ..Default::default()
-        })
-        .unwrap()
-    }
+    use crate::testutil::{frame, sift_front_end, write_synthetic_shards};
 
     /// On shards without label noise, every labelled point of many augmented samples
     /// reprojects, with the sample's pose and intrinsics, onto its keypoint; and line
@@ -329,7 +321,7 @@ mod tests {
     fn augmented_samples_reproject_onto_their_keypoints() {
         let dir = tempfile::tempdir().unwrap();
         let paths = write_synthetic_shards(dir.path(), 2, 10, 0.0);
-        let fe = front_end();
+        let fe = sift_front_end();
         let aug = AugmentConfig {
             probability: 1.0,
             ..Default::default()
@@ -403,7 +395,7 @@ mod tests {
     fn recentring_keeps_camera_coordinates() {
         let f = frame(5, 20, 3, 0.0);
         let mut rng = seeds::rng(0, Purpose::Sample, 0);
-        let a = prepare(&f, &front_end(), None, &Limits::default(), &mut rng)
+        let a = prepare(&f, &sift_front_end(), None, &Limits::default(), &mut rng)
             .unwrap()
             .sample;
         let mut b = a.clone();
@@ -433,7 +425,7 @@ mod tests {
     #[test]
     fn limits_subsample_with_the_seed() {
         let f = frame(3, 40, 6, 0.0);
-        let fe = front_end();
+        let fe = sift_front_end();
         let limits = Limits {
             max_keypoints: 10,
             max_lines: 2,
@@ -459,7 +451,7 @@ mod tests {
         let mut f = frame(4, 5, 1, 0.0);
         f.image_bytes.truncate(40);
         let mut rng = seeds::rng(0, Purpose::Sample, 0);
-        let e = prepare(&f, &front_end(), None, &Limits::default(), &mut rng)
+        let e = prepare(&f, &sift_front_end(), None, &Limits::default(), &mut rng)
             .unwrap_err()
             .to_string();
         assert!(e.contains("frame 4") && e.contains("decoding"), "{e}");

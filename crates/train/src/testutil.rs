@@ -144,3 +144,12 @@ pub fn write_synthetic_shards(
         })
         .collect()
 }
+
+/// The SIFT + LSD front-end of the tests: 4 descriptor samples per segment.
+pub fn sift_front_end() -> features::SiftFrontEnd {
+    features::SiftFrontEnd::new(features::FrontEndConfig {
+        samples_per_line: 4,
+        ..Default::default()
+    })
+    .unwrap()
+}
