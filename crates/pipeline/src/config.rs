@@ -74,11 +74,12 @@ pub struct FeaturesSection {
 
 /// Nightly retraining: with `--warm-start CKPT` the train stage starts from that model's
 /// weights (fresh optimiser, the model's coordinate centre) and trains this many
-/// iterations on the current shards, with its own learning-rate schedule.
+/// iterations on the current shards, with `[train]`'s learning-rate schedule.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct WarmStartSection {
-    /// None: a fifth of `[train] iterations` (at least 1).
+    /// None: `[train] iterations`. Shorter warm starts lost accuracy on the frames the
+    /// previous model had learned (docs/operations.md, "How long a warm start trains").
     #[serde(skip_serializing_if = "Option::is_none")]
     pub iterations: Option<u64>,
     /// None: `[train] learning_rate`.
@@ -87,10 +88,18 @@ pub struct WarmStartSection {
 }
 
 impl WarmStartSection {
+    /// Refuses what `[train]`'s own check would only refuse when the stage starts.
+    pub fn validate(&self) -> std::result::Result<(), String> {
+        if self.iterations == Some(0) {
+            return Err("iterations must be at least 1".into());
+        }
+        Ok(())
+    }
+
     /// The trainer's configuration of a warm-started run.
     pub fn train_config(&self, train: &train::TrainConfig) -> train::TrainConfig {
         let mut c = train.clone();
-        c.iterations = self.iterations.unwrap_or((train.iterations / 5).max(1));
+        c.iterations = self.iterations.unwrap_or(train.iterations);
         if let Some(lr) = self.learning_rate {
             c.learning_rate = lr;
         }
@@ -417,6 +426,9 @@ fn check_sections(r: &Resolver, file: &mut PipelineFile) -> Result<()> {
         t.validate()
             .map_err(|e| r.section("train", e.to_string()))?;
     }
+    if let Some(w) = &file.warm_start {
+        w.validate().map_err(|e| r.section("warm_start", e))?;
+    }
     if let Some(score) = &mut file.score {
         score
             .resolve()
@@ -729,5 +741,50 @@ mod tests {
         .unwrap_err()
         .to_string();
         assert!(e.contains("/tmp/w") && e.contains("not valid UTF-8"), "{e}");
+    }
+
+    fn warm(text: &str) -> (train::TrainConfig, train::TrainConfig) {
+        let p = resolve(text).unwrap();
+        let t = p.file.train.clone().unwrap();
+        let w = p
+            .file
+            .warm_start
+            .clone()
+            .unwrap_or_default()
+            .train_config(&t);
+        (t, w)
+    }
+
+    #[test]
+    fn a_warm_start_runs_the_whole_schedule_unless_told_otherwise() {
+        let (t, w) = warm(
+            "work = \"w\"\n[synth]\ntiny = true\n[train]\niterations = 1200\n\
+             learning_rate = 1e-3\nlr_schedule = \"cosine\"\nlr_halvings = 5\n",
+        );
+        assert_eq!(w, t);
+        let (t, w) = warm(
+            "work = \"w\"\n[synth]\ntiny = true\n[train]\niterations = 1200\n\
+             [warm_start]\niterations = 600\nlearning_rate = 2e-4\n",
+        );
+        assert_eq!((w.iterations, w.learning_rate), (600, 2e-4));
+        assert_eq!(w.lr_halvings, t.lr_halvings);
+    }
+
+    #[test]
+    fn bad_warm_start_keys_are_refused_by_name() {
+        let e =
+            resolve("work = \"w\"\n[synth]\ntiny = true\n[train]\n[warm_start]\niterations = 0\n")
+                .unwrap_err()
+                .to_string();
+        assert!(
+            e.contains("/p/x.toml") && e.contains("iterations must be at least 1"),
+            "{e}"
+        );
+        let e = resolve(
+            "work = \"w\"\n[synth]\ntiny = true\n[train]\n[warm_start]\nschedule = \"tail\"\n",
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("schedule"), "{e}");
     }
 }
