@@ -3,10 +3,9 @@
 //! for each new shape, so this count is what buckets are for.
 //!
 //! The synthetic room (`pl2map synth`, 300 frames, through ingest, import and shard with
-//! the built binary) feeds the trainer's real data path: `train::stream::FrameStream`
-//! (the shuffled epoch order) preparing each frame with `train::sample::prepare_with_cache`
-//! and the SIFT front-end, seeded by its stream position as the trainer seeds it, with
-//! the descriptor cache filled up front as the trainer fills it. Shapes counted:
+//! the built binary) feeds the trainer's own data path, `train::trainer::sample_stream`
+//! (the shuffled epoch order, each frame prepared with the SIFT front-end, seeded by its
+//! stream position, the descriptor cache filled up front). Shapes counted:
 //! - the network's passes, (images, N, M) each, from `train::step::pass_shapes` (the
 //!   step's own grouping);
 //! - without buckets, the loss's index gathers (crates/model/src/loss.rs): the labelled
@@ -21,16 +20,10 @@
 //! front-end does not change the counts). Also the default limits 1024 / 128. Each over
 //! 2,000 steps.
 
-use features::FrontEnd;
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 use std::process::Command;
-use std::sync::Arc;
 use train::config::ShapeBuckets;
-use train::descriptor_cache::DescriptorCache;
-use train::sample::prepare_with_cache;
-use train::seeds::{self, Purpose};
-use train::stream::{FrameStream, StreamConfig};
 use train::{Device, Limits, TrainConfig};
 
 const STEPS: u64 = 2000;
@@ -41,13 +34,9 @@ fn pl2map() -> Command {
     c
 }
 
+/// Runs a pl2map command; a failure shows its stderr (testkit::process::ok).
 fn run(c: &mut Command, what: &str) {
-    let out = c.output().unwrap();
-    assert!(
-        out.status.success(),
-        "{what}: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    testkit::process::ok(c.output().unwrap(), what);
 }
 
 /// The synthetic room's training shards under `root`.
@@ -111,49 +100,33 @@ struct ImageSizes {
     reprojectable_lines: usize,
 }
 
-/// Over `STEPS` steps of `config`'s data path: the distinct shapes with buckets off
-/// (passes and gathers) and on (passes), and the distinct real (N, M) of the images.
-/// `cache`: the frames' descriptors, filled up front.
-fn count_shapes(
-    shards: &[PathBuf],
-    config: &TrainConfig,
-    front_end: Arc<dyn FrontEnd>,
-    cache: Arc<DescriptorCache>,
-) -> (usize, usize, usize) {
-    let stream_config = StreamConfig {
-        shuffle_buffer: config.shuffle_buffer,
-        prefetch: 2 * config.batch_frames,
-        seed: config.seed,
-        chunk_cache_bytes: 256 << 20,
-        workers: 2,
-    };
-    let (aug, limits, seed) = (config.augment.clone(), config.limits.clone(), config.seed);
-    // As the trainer prepares its samples (crates/train/src/trainer.rs, `sample_stream`).
-    let mut stream = FrameStream::start(shards, stream_config, 0, move |at, frame| {
-        let mut rng = seeds::rng(seed, Purpose::Sample, at.position);
-        let p = prepare_with_cache(
-            &frame,
-            front_end.as_ref(),
-            Some(&aug),
-            &limits,
-            &mut rng,
-            Some(&cache),
-        )?;
-        let s = &p.sample;
-        let labelled = |valid: &[bool]| valid.iter().filter(|v| **v).count();
-        Ok(ImageSizes {
-            rows: (s.num_points(), s.num_lines()),
-            labelled_points: labelled(&s.point_valid),
-            labelled_lines: labelled(&s.line_valid),
-            reprojectable_lines: s
-                .segments
-                .iter()
-                .zip(&s.line_valid)
-                .filter(|(seg, v)| **v && model::sample::line_equation(seg).is_some())
-                .count(),
-        })
-    })
-    .unwrap();
+/// The sizes that decide one prepared image's shapes.
+fn image_sizes(p: &train::sample::Prepared) -> ImageSizes {
+    let s = &p.sample;
+    let labelled = |valid: &[bool]| valid.iter().filter(|v| **v).count();
+    ImageSizes {
+        rows: (s.num_points(), s.num_lines()),
+        labelled_points: labelled(&s.point_valid),
+        labelled_lines: labelled(&s.line_valid),
+        reprojectable_lines: s
+            .segments
+            .iter()
+            .zip(&s.line_valid)
+            .filter(|(seg, v)| **v && model::sample::line_equation(seg).is_some())
+            .count(),
+    }
+}
+
+/// Over `STEPS` steps of `config`'s data path (the trainer's own sample stream, its
+/// descriptor cache filled up front as in training, spilled into `work`): the distinct
+/// shapes with buckets off (passes and gathers) and on (passes), and the distinct real
+/// (N, M) of the images.
+fn count_shapes(shards: &[PathBuf], config: &TrainConfig, work: &Path) -> (usize, usize, usize) {
+    let front_end = frontends::build(&config.front_end).unwrap();
+    let spill = work.join(format!("spill-{}", config.limits.max_keypoints));
+    let mut stream =
+        train::trainer::sample_stream(config, shards, front_end, ([0.0; 3], 0), &spill, false)
+            .unwrap();
     let reprojection = config.loss.weight_reprojection > 0.0;
     let on = TrainConfig {
         shape_buckets: ShapeBuckets::On,
@@ -169,7 +142,7 @@ fn count_shapes(
     let mut gathers = BTreeSet::new();
     for _ in 0..STEPS {
         let images: Vec<ImageSizes> = (0..config.batch_frames)
-            .map(|_| stream.next_item().unwrap().1)
+            .map(|_| image_sizes(&stream.next_item().unwrap().1))
             .collect();
         let step: Vec<(usize, usize)> = images.iter().map(|i| i.rows).collect();
         sizes.extend(step.iter().copied());
@@ -234,19 +207,9 @@ fn shape_buckets_bound_the_shapes_a_run_presents() {
     // limits or one ladder size under (two gradient groups of 8 share one shape); the
     // paper's ladders hold 13 (N: 0 and 12 sizes) x 10 (M) pairs, of which the room's
     // images meet a few.
-    // One front-end and one descriptor cache for all three (the same SIFT front-end; the
-    // cache holds whole frames, whatever the limits).
     for c in [&main_job, &paper] {
         assert_eq!(c.front_end, TrainConfig::default().front_end);
     }
-    let front_end = frontends::build(&main_job.front_end).unwrap();
-    let mut cache = DescriptorCache::new(main_job.descriptor_cache_mib);
-    let bar = stage::progress_bar(0, "describing frames for the descriptor cache");
-    cache
-        .prefill(&shards, front_end.as_ref(), &bar, None)
-        .unwrap();
-    bar.finish_and_clear();
-    let cache = Arc::new(cache);
     for (name, config, bound) in [
         (
             "main job (batch 16 in 2 groups, limits 32/12)",
@@ -264,7 +227,7 @@ fn shape_buckets_bound_the_shapes_a_run_presents() {
             30,
         ),
     ] {
-        let (off, on, sizes) = count_shapes(&shards, config, front_end.clone(), cache.clone());
+        let (off, on, sizes) = count_shapes(&shards, config, dir.path());
         eprintln!(
             "{name}: {STEPS} steps, {sizes} distinct image sizes (N, M); distinct tensor \
              shapes (network passes and loss gathers): {off} with buckets off, {on} with \

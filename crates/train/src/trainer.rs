@@ -484,8 +484,9 @@ pub fn init_checkpoint(path: &Path, config: &TrainConfig) -> Result<CheckpointFi
 
 /// The stream of training samples from iteration `start` on: frames from the shards,
 /// augmented and described by `front_end` on the sample workers, recentred on `centre`.
-/// The configuration reaches the samples here, once.
-fn sample_stream(
+/// The configuration reaches the samples here, once. Public for the tests that count
+/// what the trainer's data path yields (tests/shape_buckets.rs).
+pub fn sample_stream(
     config: &TrainConfig,
     shards: &[PathBuf],
     front_end: Arc<dyn features::FrontEnd>,
