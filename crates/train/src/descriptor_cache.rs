@@ -404,6 +404,17 @@ mod tests {
         assert!(none.is_empty());
     }
 
+    /// The limits of these tests: fewer rows than the synthetic frames have.
+    const SMALL_LIMITS: Limits = Limits {
+        max_keypoints: 7,
+        max_lines: 2,
+    };
+
+    /// What one synthetic frame's descriptors take in the cache.
+    fn one_frame_bytes(fe: &dyn FrontEnd) -> usize {
+        4 * features::SIFT_DIM * rows(&frame(0, 40, 6, 0.0), fe)
+    }
+
     /// Prefilling describes every frame of the shards (up to the budget) exactly as a
     /// sample would: a prefilled cache gives the plain samples.
     #[test]
@@ -411,10 +422,7 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let paths = write_synthetic_shards(dir.path(), 2, 3, 0.0);
         let fe = sift_front_end();
-        let limits = Limits {
-            max_keypoints: 7,
-            max_lines: 2,
-        };
+        let limits = SMALL_LIMITS;
         let mut cache = DescriptorCache::new(64);
         cache
             .prefill(&paths, &fe, &indicatif::ProgressBar::hidden(), None)
@@ -430,7 +438,7 @@ mod tests {
             assert_eq!(plain.sample, cached.sample);
         }
         // A budget for about one frame caches a prefix of the file order, no more.
-        let one = 4 * features::SIFT_DIM * rows(&frame(0, 40, 6, 0.0), &fe);
+        let one = one_frame_bytes(&fe);
         let mut small = DescriptorCache::with_budget_bytes(one + one / 2);
         small
             .prefill(&paths, &fe, &indicatif::ProgressBar::hidden(), None)
@@ -448,11 +456,8 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let paths = write_synthetic_shards(dir.path(), 2, 3, 0.0);
         let fe = sift_front_end();
-        let limits = Limits {
-            max_keypoints: 7,
-            max_lines: 2,
-        };
-        let one = 4 * features::SIFT_DIM * rows(&frame(0, 40, 6, 0.0), &fe);
+        let limits = SMALL_LIMITS;
+        let one = one_frame_bytes(&fe);
         let path = dir.path().join("descriptors.spill");
         let target = |key: u8| SpillTarget {
             path: &path,
@@ -531,11 +536,8 @@ mod tests {
             })
             .collect();
         let fe = sift_front_end();
-        let limits = Limits {
-            max_keypoints: 7,
-            max_lines: 2,
-        };
-        let one = 4 * features::SIFT_DIM * rows(&frame(0, 40, 6, 0.0), &fe);
+        let limits = SMALL_LIMITS;
+        let one = one_frame_bytes(&fe);
         let path = dir.path().join("descriptors.spill");
         let bar = indicatif::ProgressBar::hidden();
         let from_shards: Vec<FrameRecord> = shards::ShardReader::open(&paths)
