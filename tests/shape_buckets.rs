@@ -2,8 +2,8 @@
 //! and on (crates/model/src/buckets.rs): a JIT engine (CUDA, CubeCL) compiles kernels
 //! for each new shape, so this count is what buckets are for.
 //!
-//! The synthetic room (`pl2map synth`, 300 frames, through ingest, import and shard with
-//! the built binary) feeds the trainer's own data path, `train::trainer::sample_stream`
+//! The synthetic room (300 frames, `pl2map run` of the built binary up to the shards)
+//! feeds the trainer's own data path, `train::trainer::sample_stream`
 //! (the shuffled epoch order, each frame prepared with the SIFT front-end, seeded by its
 //! stream position, the descriptor cache filled up front). Shapes counted:
 //! - the network's passes, (images, N, M) each, from `train::step::pass_shapes` (the
@@ -34,48 +34,25 @@ fn pl2map() -> Command {
     c
 }
 
-/// Runs a pl2map command; a failure shows its stderr (testkit::process::ok).
-fn run(c: &mut Command, what: &str) {
-    testkit::process::ok(c.output().unwrap(), what);
-}
-
-/// The synthetic room's training shards under `root`.
+/// The synthetic room's training shards under `root`: `pl2map run` of the default room
+/// (synth, ingest, import and shard with their defaults; no refine) up to the shards.
 fn room_shards(root: &Path) -> Vec<PathBuf> {
-    run(pl2map().arg("synth").arg(root.join("data")), "synth");
-    let scene = root.join("data/synthroom");
-    run(
+    let file = root.join("room.toml");
+    std::fs::write(
+        &file,
+        "work = \"work\"\n[synth]\n[ingest]\n[import]\n[shard]\n",
+    )
+    .unwrap();
+    testkit::process::ok(
         pl2map()
-            .args(["ingest", "--dataset", "7scenes", "--root"])
-            .arg(&scene)
-            .arg("--out")
-            .arg(root.join("frames")),
-        "ingest",
+            .arg("run")
+            .arg(&file)
+            .args(["--until", "shard"])
+            .output()
+            .unwrap(),
+        "pl2map run --until shard",
     );
-    run(
-        pl2map()
-            .arg("import")
-            .arg("--frames")
-            .arg(root.join("frames/frames.parquet"))
-            .arg("--model")
-            .arg(scene.join("sfm_gt/colmap"))
-            .arg("--limap")
-            .arg(scene.join("sfm_gt/limap"))
-            .arg("--out")
-            .arg(root.join("labels")),
-        "import",
-    );
-    run(
-        pl2map()
-            .arg("shard")
-            .arg("--frames")
-            .arg(root.join("frames/frames.parquet"))
-            .arg("--labels")
-            .arg(root.join("labels"))
-            .arg("--out")
-            .arg(root.join("shards")),
-        "shard",
-    );
-    let mut shards: Vec<PathBuf> = std::fs::read_dir(root.join("shards"))
+    let mut shards: Vec<PathBuf> = std::fs::read_dir(root.join("work/shard"))
         .unwrap()
         .map(|e| e.unwrap().path())
         .filter(|p| {
