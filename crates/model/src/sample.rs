@@ -320,7 +320,6 @@ impl<B: Backend> Targets<B> {
             labelled_lines.len,
             6,
         );
-        let validity = |v: &[bool]| v.iter().map(|&b| if b { 1.0 } else { 0.0 }).collect();
         let (rotation_t, translation, focal, principal) = camera_tensors(s, device);
         Targets {
             num_points: n,
@@ -328,21 +327,14 @@ impl<B: Backend> Targets<B> {
             labelled_points,
             point_labels,
             unlabelled_points,
-            point_validity: gather(validity(&s.point_valid), n, 1),
+            point_validity: gather(flags(&s.point_valid), n, 1),
             keypoints: gather(s.keypoints.iter().flatten().copied().collect(), n, 2),
             labelled_lines,
             line_labels,
             reprojectable_labelled_lines,
             reprojectable_unlabelled_lines,
-            line_validity: gather(validity(&s.line_valid), m, 1),
-            line_equations: gather(
-                equations
-                    .iter()
-                    .flat_map(|e| e.unwrap_or([0.0; 3]))
-                    .collect(),
-                m,
-                3,
-            ),
+            line_validity: gather(flags(&s.line_valid), m, 1),
+            line_equations: gather(equation_values(&equations), m, 3),
             rotation_t,
             translation,
             focal,
@@ -408,7 +400,6 @@ impl<B: Backend> Targets<B> {
                 reprojectable(j) && !s.line_valid[j]
             }),
         };
-        let validity = |v: &[bool]| v.iter().map(|&b| if b { 1.0 } else { 0.0 }).collect();
         let (rotation_t, translation, focal, principal) = camera_tensors(s, device);
         Targets {
             num_points: n,
@@ -416,7 +407,7 @@ impl<B: Backend> Targets<B> {
             labelled_points: Subset::counted(labelled_points),
             point_labels: None,
             unlabelled_points: Subset::counted(n - labelled_points),
-            point_validity: wide(rows_n, 1, validity(&s.point_valid)),
+            point_validity: wide(rows_n, 1, flags(&s.point_valid)),
             keypoints: wide(rows_n, 2, s.keypoints.iter().flatten().copied().collect()),
             labelled_lines: Subset::counted(labelled_lines),
             line_labels: None,
@@ -426,15 +417,8 @@ impl<B: Backend> Targets<B> {
             reprojectable_unlabelled_lines: Subset::counted(count(m, &|j| {
                 reprojectable(j) && !s.line_valid[j]
             })),
-            line_validity: wide(rows_m, 1, validity(&s.line_valid)),
-            line_equations: wide(
-                rows_m,
-                3,
-                equations
-                    .iter()
-                    .flat_map(|e| e.unwrap_or([0.0; 3]))
-                    .collect(),
-            ),
+            line_validity: wide(rows_m, 1, flags(&s.line_valid)),
+            line_equations: wide(rows_m, 3, equation_values(&equations)),
             rotation_t,
             translation,
             focal,
@@ -442,6 +426,19 @@ impl<B: Backend> Targets<B> {
             masks: Some(masks),
         }
     }
+}
+
+/// 1.0 where set, 0.0 elsewhere: a validity column of [`Targets`].
+fn flags(v: &[bool]) -> Vec<f32> {
+    v.iter().map(|&b| if b { 1.0 } else { 0.0 }).collect()
+}
+
+/// The line equations of [`Targets`], row by row; zeros where a segment has none.
+fn equation_values(equations: &[Option<[f32; 3]>]) -> Vec<f32> {
+    equations
+        .iter()
+        .flat_map(|e| e.unwrap_or([0.0; 3]))
+        .collect()
 }
 
 /// R^T [3, 3], t [1, 3], [fx, fy] and [cx, cy] of a sample ([`Targets`]).
